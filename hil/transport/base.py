@@ -1,0 +1,133 @@
+"""Transport contract shared by the pty and in-memory ports."""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from hil import clock
+
+
+class Direction(enum.Enum):
+    """Wire direction, named from the bench's point of view."""
+
+    TX = "tx"  #: bench (emulated device) -> client (flight code)
+    RX = "rx"  #: client -> bench
+
+
+@dataclass(frozen=True)
+class WireRecord:
+    """One chunk of bytes seen on a port. ``t_ns`` is sim time, ``t_host_ns`` monotonic."""
+
+    port: str
+    direction: Direction
+    t_ns: int
+    t_host_ns: int
+    data: bytes
+
+
+@dataclass(frozen=True)
+class LineSettings:
+    """What the client configured on its end of the line.
+
+    ``baud`` in bit/s (None if unknown), ``bytesize`` 5..8, ``parity`` 'N'/'E'/'O',
+    ``stopbits`` 1 or 2. ``opened`` is True for the notification caused by an open
+    (input flush), False for a plain termios change.
+    """
+
+    baud: int | None
+    bytesize: int = 8
+    parity: str = "N"
+    stopbits: int = 1
+    opened: bool = False
+
+
+@dataclass
+class PortStats:
+    """Counters of one port; never reset during a run."""
+
+    bytes_tx: int = 0
+    bytes_rx: int = 0
+    writes: int = 0
+    reads: int = 0
+    overflow_bytes: int = 0  #: bytes dropped because the client did not read in time
+    overflow_events: int = 0
+    opens: int = 0  #: client opens noticed (input flush on open)
+    line_changes: int = 0  #: termios changes noticed
+    delivery_timeouts: int = 0  #: confirmed writes that did not reach the client in time
+    extra: dict[str, int] = field(default_factory=dict)
+
+
+DataCallback = Callable[[bytes, int], None]
+LineCallback = Callable[[LineSettings], None]
+TapCallback = Callable[[WireRecord], None]
+
+
+def _no_data(data: bytes, t_ns: int) -> None:
+    return None
+
+
+def _no_line(settings: LineSettings) -> None:
+    return None
+
+
+class Port:
+    """Base of the transports: callbacks, tap and sim-time source.
+
+    ``sim_time`` is a callable giving the current sim time in ns; the bench sets it so
+    that taps and ``on_data`` get sim timestamps. ``on_data(data, t_ns)`` is called on
+    the event loop for every chunk the client wrote.
+    """
+
+    def __init__(self, name: str, *, buffer_limit: int = 65536) -> None:
+        self.name = name
+        self.buffer_limit = buffer_limit
+        self.stats = PortStats()
+        self.on_data: DataCallback = _no_data
+        self.on_line: LineCallback = _no_line
+        self.taps: list[TapCallback] = []
+        self.sim_time: Callable[[], int] = lambda: 0
+        self.line: LineSettings | None = None
+
+    # -- to implement --------------------------------------------------------------
+    @property
+    def path(self) -> str | None:
+        """Path a client opens (a stable symlink for ptys), None for in-memory ports."""
+        return None
+
+    def write(self, data: bytes) -> int:  # pragma: no cover - abstract
+        """Queue ``data`` for the client without blocking; return bytes accepted."""
+        raise NotImplementedError
+
+    async def write_confirmed(self, data: bytes, timeout_s: float = 0.05) -> bool:
+        """Write and wait until the bytes are readable by the client (or timeout)."""
+        raise NotImplementedError  # pragma: no cover - abstract
+
+    def close(self) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    async def start(self) -> None:
+        """Register with the running event loop."""
+
+    # -- shared helpers -----------------------------------------------------------------
+    def _tap(self, direction: Direction, data: bytes, t_ns: int) -> None:
+        if self.taps:
+            rec = WireRecord(self.name, direction, t_ns, clock.monotonic_ns(), data)
+            for tap in self.taps:
+                tap(rec)
+
+    def _deliver_rx(self, data: bytes) -> None:
+        t_ns = self.sim_time()
+        self.stats.bytes_rx += len(data)
+        self.stats.reads += 1
+        self._tap(Direction.RX, data, t_ns)
+        self.on_data(data, t_ns)
+
+    def _line_changed(self, settings: LineSettings) -> None:
+        self.line = settings
+        if settings.opened:
+            self.stats.opens += 1
+        else:
+            self.stats.line_changes += 1
+        self.on_line(settings)
