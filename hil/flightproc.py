@@ -1,0 +1,112 @@
+"""Start and stop the flight code as its own process and capture its output.
+
+The command line comes from the rig (any language): ``{python}`` is replaced by this
+interpreter and ``{config}`` by the generated flight config. stdout and stderr are read
+line by line; each line goes to ``on_line(stream, text)`` (the bench logs it to MCAP as
+foxglove.Log) and the last lines are kept for the run summary.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import os
+import signal
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+LineCallback = Callable[[str, str], None]
+
+
+def expand_command(template: Sequence[str], *, config: Path) -> list[str]:
+    """Substitute ``{python}`` and ``{config}`` in the rig's command template."""
+    return [part.replace("{python}", sys.executable).replace("{config}", str(config)) for part in template]
+
+
+class FlightProcess:
+    """The flight code subprocess."""
+
+    def __init__(self, argv: list[str], *, cwd: Path, on_line: LineCallback, keep_lines: int = 20) -> None:
+        self.argv = argv
+        self.cwd = cwd
+        self.on_line = on_line
+        self.last_stderr: collections.deque[str] = collections.deque(maxlen=keep_lines)
+        self.proc: asyncio.subprocess.Process | None = None
+        self._readers: list[asyncio.Task[None]] = []
+        self.exited = asyncio.Event()
+        self.killed_by_bench = False
+
+    async def start(self, extra_env: dict[str, str] | None = None) -> None:
+        env = dict(os.environ)
+        env.setdefault("PYTHONUNBUFFERED", "1")
+        if extra_env:
+            env.update(extra_env)
+        self.proc = await asyncio.create_subprocess_exec(
+            *self.argv,
+            cwd=self.cwd,
+            stdin=asyncio.subprocess.DEVNULL,
+            stdout=asyncio.subprocess.PIPE,
+            stderr=asyncio.subprocess.PIPE,
+            env=env,
+            start_new_session=True,  # Ctrl-C in the terminal reaches the bench only
+        )
+        assert self.proc.stdout is not None and self.proc.stderr is not None
+        self._readers = [
+            asyncio.create_task(self._pump(self.proc.stdout, "stdout")),
+            asyncio.create_task(self._pump(self.proc.stderr, "stderr")),
+        ]
+        asyncio.create_task(self._watch())
+
+    async def _pump(self, stream: asyncio.StreamReader, name: str) -> None:
+        while True:
+            raw = await stream.readline()
+            if not raw:
+                return
+            text = raw.decode("utf-8", "replace").rstrip("\n")
+            if name == "stderr":
+                self.last_stderr.append(text)
+            self.on_line(name, text)
+
+    async def _watch(self) -> None:
+        assert self.proc is not None
+        await self.proc.wait()
+        await asyncio.gather(*self._readers, return_exceptions=True)
+        self.exited.set()
+
+    @property
+    def pid(self) -> int | None:
+        return self.proc.pid if self.proc else None
+
+    @property
+    def returncode(self) -> int | None:
+        return self.proc.returncode if self.proc else None
+
+    @property
+    def running(self) -> bool:
+        return self.proc is not None and self.proc.returncode is None
+
+    def kill(self) -> None:
+        """SIGKILL now (fault injection: the flight code killed)."""
+        if self.running:
+            assert self.proc is not None
+            self.killed_by_bench = True
+            self.proc.kill()
+
+    async def stop(self, timeout_s: float = 3.0) -> int | None:
+        """SIGTERM, then SIGKILL after ``timeout_s``; returns the exit status."""
+        if self.proc is None:
+            return None
+        if self.running:
+            try:
+                self.proc.send_signal(signal.SIGTERM)
+            except ProcessLookupError:
+                pass
+            try:
+                await asyncio.wait_for(self.exited.wait(), timeout_s)
+            except TimeoutError:
+                self.kill()
+                await self.exited.wait()
+        else:
+            await self.exited.wait()
+        return self.proc.returncode

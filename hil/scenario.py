@@ -1,0 +1,168 @@
+"""Scenario files: what happens during a run and how it is judged.
+
+A scenario (``rigs/scenarios/<name>.toml``) scripts the RC sticks, plant events (wind,
+gusts, payload), faults, the run duration, optional overrides of the flight code's
+config, and the pass/fail criteria evaluated on the run's trace. Everything is in sim
+time (seconds in the file, ns inside).
+
+    [scenario]
+    name = "hover"
+    duration_s = 30.0
+
+    [[sticks]]            # setpoint with a ramp, a sine, a gesture or a signal loss
+    t_s = 0.5
+    action = "arm"
+
+    [[events]]
+    t_s = 15.0
+    kind = "payload"
+    extra_mass_kg = 0.3
+
+    [[criteria]]
+    name = "roll held"
+    signal = "truth.roll_deg"
+    metric = "max_abs"
+    window_s = [8.0, 30.0]
+    max = 3.0
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from hil.config import ConfigError, load_toml, validate
+
+S_TO_NS = 1_000_000_000
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class ScenarioHeader(_Strict):
+    name: str
+    description: str = ""
+    duration_s: float = Field(gt=0)
+    seed: int = 1
+    #: The phase shown in the progress bar: list of (t_s, label), increasing.
+    phases: list[tuple[float, str]] = []
+
+
+class SineSpec(_Strict):
+    amplitude_us: float = Field(ge=0, le=500)
+    freq_hz: float = Field(gt=0)
+    duration_s: float = Field(gt=0)
+    offset_us: float | None = None
+    fade_s: float = Field(default=2.0, ge=0)
+
+
+class StickEntry(_Strict):
+    """One line of the stick script; exactly one of pulse_us / sine / action."""
+
+    t_s: float = Field(ge=0)
+    channel: int | None = Field(default=None, ge=1, le=8)
+    pulse_us: float | None = Field(default=None, ge=800, le=2200)
+    ramp_s: float = Field(default=0.0, ge=0)
+    sine: SineSpec | None = None
+    action: Literal["arm", "disarm", "loss"] | None = None
+    duration_s: float | None = Field(default=None, gt=0)
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> StickEntry:
+        kinds = [self.pulse_us is not None, self.sine is not None, self.action is not None]
+        if sum(kinds) != 1:
+            raise ValueError("give exactly one of pulse_us, sine or action")
+        if (self.pulse_us is not None or self.sine is not None) and self.channel is None:
+            raise ValueError("pulse_us and sine need a channel (1..8)")
+        if self.action == "loss" and self.duration_s is None:
+            raise ValueError("action 'loss' needs duration_s")
+        return self
+
+
+class PayloadEvent(_Strict):
+    kind: Literal["payload"]
+    t_s: float = Field(ge=0)
+    extra_mass_kg: float = Field(ge=0, le=2.0)
+    r_B_m: tuple[float, float, float] = (0.0, 0.0, 0.1)
+
+
+class WindEvent(_Strict):
+    """Constant wind added from t_s for duration_s (None = to the end): a step or a gust."""
+
+    kind: Literal["wind"]
+    t_s: float = Field(ge=0)
+    wind_N_mps: tuple[float, float, float]
+    duration_s: float | None = Field(default=None, gt=0)
+
+
+class GustEvent(_Strict):
+    """A (1 - cos) gust of peak ``wind_N_mps`` lasting ``duration_s``."""
+
+    kind: Literal["gust"]
+    t_s: float = Field(ge=0)
+    wind_N_mps: tuple[float, float, float]
+    duration_s: float = Field(gt=0)
+
+
+PlantEvent = Annotated[PayloadEvent | WindEvent | GustEvent, Field(discriminator="kind")]
+
+
+class Criterion(_Strict):
+    """A pass/fail check on one signal of the run's trace (see hil/criteria.py)."""
+
+    name: str
+    signal: str
+    metric: Literal[
+        "max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude",
+        "rms_delta", "overshoot", "settling_time", "fraction_saturated", "rise_time",
+    ]
+    window_s: tuple[float, float] | None = None
+    max: float | None = None
+    min: float | None = None
+    #: metric parameters: target (overshoot/settling/rise), band (settling), step_t_s,
+    #: lo/hi (fraction_saturated)
+    target: float | None = None
+    band: float | None = None
+    step_t_s: float | None = None
+    start: float | None = None
+    lo: float | None = None
+    hi: float | None = None
+
+    @model_validator(mode="after")
+    def _has_bound(self) -> Criterion:
+        if self.max is None and self.min is None:
+            raise ValueError("a criterion needs max and/or min")
+        return self
+
+
+class Scenario(_Strict):
+    scenario: ScenarioHeader
+    flight: dict[str, Any] = {}
+    sticks: list[StickEntry] = []
+    events: list[PlantEvent] = []
+    faults: list[dict[str, Any]] = []
+    criteria: list[Criterion] = []
+    timing: dict[str, float] = {}
+
+    @property
+    def name(self) -> str:
+        return self.scenario.name
+
+    @property
+    def duration_ns(self) -> int:
+        return int(round(self.scenario.duration_s * S_TO_NS))
+
+
+def load_scenario(path: Path) -> Scenario:
+    """Read and validate a scenario file (errors name file, key and reason)."""
+    data = load_toml(path)
+    scenario = validate(Scenario, data, file=path, section="")
+    last = -1.0
+    for i, entry in enumerate(scenario.sticks):
+        if entry.t_s < last:
+            raise ConfigError(f"{path}: [[sticks]] {i}.t_s: times must not decrease ({entry.t_s} < {last})")
+        last = entry.t_s
+    return scenario
