@@ -1,0 +1,91 @@
+"""The run's trace: named time series kept in memory for the criteria and the summary.
+
+Per-tick signals (plant truth, ESC pulses, throttles) are appended as rows of floats on
+the tick path (one tuple append per group); irregular series (telemetry at 50 Hz, device
+counters) are appended with their own sim times. ``signal(name)`` returns any of them on
+the tick grid (zero-order hold for irregular series), as numpy arrays.
+
+Signal names are ``<group>.<field>``; multi-column fields are addressed as a whole
+(``esc.pulse_us``, shape (n, 4)) or by column (``esc.pulse_us[2]``).
+"""
+
+from __future__ import annotations
+
+import re
+import numpy as np
+
+_COLUMN = re.compile(r"^(?P<base>.+)\[(?P<idx>\d+)\]$")
+
+
+class Trace:
+    """Columnar store of the run's signals."""
+
+    def __init__(self) -> None:
+        self._groups: dict[str, tuple[dict[str, int], list[int], list[tuple[float, ...]]]] = {}
+        self._series: dict[str, tuple[list[int], list[float]]] = {}
+        self._cache: dict[str, np.ndarray] = {}
+
+    # -- writing ----------------------------------------------------------------------------
+    def define(self, group: str, fields: dict[str, int]) -> None:
+        """Declare a per-tick group: field name -> number of columns, in row order."""
+        self._groups[group] = (dict(fields), [], [])
+
+    def row(self, group: str, t_ns: int, values: tuple[float, ...]) -> None:
+        """Append one row of a group (values in the declared field order, flattened)."""
+        _, times, rows = self._groups[group]
+        times.append(t_ns)
+        rows.append(values)
+        self._cache.clear()
+
+    def point(self, name: str, t_ns: int, value: float) -> None:
+        """Append one sample of an irregular scalar series."""
+        times, values = self._series.setdefault(name, ([], []))
+        times.append(t_ns)
+        values.append(float(value))
+        self._cache.clear()
+
+    # -- reading ----------------------------------------------------------------------------
+    def names(self) -> list[str]:
+        out: list[str] = []
+        for group, (fields, _, _) in self._groups.items():
+            out += [f"{group}.{f}" for f in fields]
+        return out + list(self._series)
+
+    def tick_times_s(self, group: str = "truth") -> np.ndarray:
+        return np.asarray(self._groups[group][1], dtype=np.int64) / 1e9
+
+    def _group_array(self, group: str) -> np.ndarray:
+        key = f"__{group}"
+        if key not in self._cache:
+            _, _, rows = self._groups[group]
+            self._cache[key] = np.asarray(rows, dtype=float) if rows else np.zeros((0, 0))
+        return self._cache[key]
+
+    def signal(self, name: str, grid: str = "truth") -> tuple[np.ndarray, np.ndarray]:
+        """(t_s, values) of a signal on the tick grid of ``grid``; KeyError if unknown."""
+        col = None
+        m = _COLUMN.match(name)
+        if m:
+            name, col = m.group("base"), int(m.group("idx"))
+        if name in self._series:
+            t_s = self.tick_times_s(grid)
+            times, values = self._series[name]
+            st = np.asarray(times, dtype=np.int64) / 1e9
+            v = np.asarray(values, dtype=float)
+            idx = np.searchsorted(st, t_s, side="right") - 1
+            held = np.where(idx >= 0, v[np.clip(idx, 0, None)], np.nan) if len(v) else np.full_like(t_s, np.nan)
+            return t_s, held
+        group, _, field = name.partition(".")
+        if group not in self._groups:
+            raise KeyError(f"unknown signal {name!r} (known: {', '.join(self.names())})")
+        widths, _, _ = self._groups[group]
+        if field not in widths:
+            raise KeyError(f"unknown signal {name!r} (known: {', '.join(self.names())})")
+        names = list(widths)
+        start = sum(widths[f] for f in names[: names.index(field)])
+        arr = self._group_array(group)
+        block = arr[:, start : start + widths[field]] if arr.size else np.zeros((0, widths[field]))
+        values = block[:, 0] if widths[field] == 1 else block
+        if col is not None:
+            values = block[:, col]
+        return self.tick_times_s(group), values
