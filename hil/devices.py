@@ -1,0 +1,240 @@
+"""All emulated devices of a rig, the plant, and their wiring to ports.
+
+``DeviceSet`` owns the physical world (plant), every device model, and the glue between
+them: plant outputs become device inputs, device outputs (ESC throttles) become plant
+inputs. It does no waiting; the tick loop (``hil/bench.py``) decides when things happen.
+Ports are attached by name; bytes from a port go to its device's ``receive`` and the
+device's replies are written back at once (ADC transactions are answered from the latch
+within the tick).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from emulators.base import ByteDevice, DeviceEvent
+from hil import clock
+from hil.plant.plant import Plant
+from hil.rig import Rig
+from hil.transport.base import LineSettings, Port
+
+#: Names of the RNG streams, in spawn order (adding one at the end keeps the others).
+RNG_STREAMS = ("plant", "imu", "analog", "ppm", "esc", "xbee_vehicle", "xbee_ground", "link", "faults")
+
+EventSink = Callable[[str, DeviceEvent], None]
+
+
+@dataclass(frozen=True)
+class LatencySample:
+    t_ns: int
+    t_emit_host_ns: int
+    t_arrival_host_ns: int | None
+
+
+def spawn_rngs(seed: int) -> dict[str, np.random.Generator]:
+    """One Generator per component from the run seed (numpy SeedSequence.spawn)."""
+    children = np.random.SeedSequence(seed).spawn(len(RNG_STREAMS))
+    return {name: np.random.default_rng(s) for name, s in zip(RNG_STREAMS, children, strict=True)}
+
+
+class DeviceSet:
+    """Plant + emulators for one run."""
+
+    def __init__(self, rig: Rig, *, seed: int, stick_script: object, with_spidriver: bool = False) -> None:
+        from emulators.analog.frontend import AnalogFrontEnd
+        from emulators.buspirate.device import BusPirate
+        from emulators.esc.device import Esc
+        from emulators.maestro.device import Maestro
+        from emulators.mcp3204.device import Mcp3204
+        from emulators.rc.capture import CaptureFrontEnd
+        from emulators.rc.ppm import PpmGenerator
+        from emulators.rc.sbus import SbusFrontEnd
+        from emulators.xbee.device import XBeeModule
+        from emulators.xbee.link import RadioLink
+        from emulators.xsens.device import MtiDevice
+
+        self.rig = rig
+        self.rngs = spawn_rngs(seed)
+        self.plant = Plant(rig.plant, self.rngs["plant"])
+        self.imu = MtiDevice(rig.imu, self.rngs["imu"])
+        self.analog = AnalogFrontEnd(rig.analog, self.rngs["analog"])
+        self.mcp = Mcp3204(rig.adc.mcp3204, self.analog.volts)
+        self.adc: ByteDevice = BusPirate(rig.adc.buspirate, self.mcp)
+        self.spidriver: ByteDevice | None = None
+        if with_spidriver:
+            from emulators.spidriver.device import SpiDriver
+
+            self.spidriver = SpiDriver(rig.adc.spidriver, Mcp3204(rig.adc.mcp3204, self.analog.volts))
+        self.sticks = stick_script
+        self.ppm = PpmGenerator(rig.rc.ppm, self.rngs["ppm"], stick_script)
+        self.rc: ByteDevice = (
+            CaptureFrontEnd(rig.rc.capture) if rig.rc.frontend == "capture" else SbusFrontEnd(rig.rc.sbus)
+        )
+        self.maestro = Maestro(rig.esc.maestro)
+        self.escs = [Esc(rig.esc.esc) for _ in range(4)]
+        self.xbee_vehicle = XBeeModule(rig.telemetry.vehicle, self.rngs["xbee_vehicle"])
+        self.xbee_ground = XBeeModule(rig.telemetry.ground, self.rngs["xbee_ground"])
+        self.link = RadioLink(rig.telemetry.link, self.rngs["link"])
+        self.link.connect(self.xbee_vehicle, self.xbee_ground)
+
+        self.by_port: dict[str, ByteDevice] = {
+            "imu": self.imu,
+            "adc": self.adc,
+            "rc": self.rc,
+            "esc": self.maestro,
+            "telemetry": self.xbee_vehicle,
+            "ground": self.xbee_ground,
+        }
+        if self.spidriver is not None:
+            self.by_port["adc-spidriver"] = self.spidriver
+        self.ports: dict[str, Port] = {}
+        self.t_ns = 0
+        self.throttle = (0.0, 0.0, 0.0, 0.0)
+        self.on_esc_command: Callable[[int], None] = lambda t_host_ns: None
+        self.event_sinks: list[EventSink] = []
+        self.latency: list[LatencySample] = []
+
+    # -- wiring ---------------------------------------------------------------------------------
+    def attach(self, ports: dict[str, Port]) -> None:
+        """Connect each port to its device; the port's sim clock is this set's ``t_ns``."""
+        for name, port in ports.items():
+            device = self.by_port[name]
+            self.ports[name] = port
+            port.sim_time = self._now
+            port.on_data = self._receiver(name, device, port)
+            port.on_line = self._line_receiver(device)
+
+    def _now(self) -> int:
+        return self.t_ns
+
+    def _receiver(self, name: str, device: ByteDevice, port: Port) -> Callable[[bytes, int], None]:
+        is_esc = device is self.maestro
+
+        def on_data(data: bytes, t_ns: int) -> None:
+            device.receive(data, t_ns)
+            out = device.take_output()
+            if out:
+                port.write(out)
+            events = device.take_events()
+            if events:
+                self._dispatch(name, events)
+                if is_esc and any(type(e).__name__ == "TargetsSet" for e in events):
+                    self.on_esc_command(clock.monotonic_ns())
+
+        return on_data
+
+    def _line_receiver(self, device: ByteDevice) -> Callable[[LineSettings], None]:
+        def on_line(settings: LineSettings) -> None:
+            if settings.baud is not None:
+                device.line_settings_changed(settings.baud, self.t_ns)
+
+        return on_line
+
+    def _dispatch(self, port: str, events: list[DeviceEvent]) -> None:
+        for sink in self.event_sinks:
+            for ev in events:
+                sink(port, ev)
+
+    def _flush(self, name: str) -> None:
+        device = self.by_port[name]
+        out = device.take_output()
+        port = self.ports.get(name)
+        if out and port is not None:
+            port.write(out)
+        events = device.take_events()
+        if events:
+            self._dispatch(name, events)
+
+    # -- boot -----------------------------------------------------------------------------------
+    def advance_boot(self, t_ns: int) -> None:
+        """Boot phase (t_ns < 0): protocol timers run, nothing streams."""
+        self.t_ns = t_ns
+        for name, device in self.by_port.items():
+            if device is self.rc:
+                continue  # the receiver starts with sim time
+            device.advance(t_ns)
+            self._flush(name)
+
+    def unconfigured(self) -> dict[str, str]:
+        """Required devices the flight code has not configured yet -> why."""
+        missing: dict[str, str] = {}
+        for name in self.rig.flight.required_devices:
+            ok, why = self.configured(name)
+            if not ok:
+                missing[name] = why
+        return missing
+
+    def configured(self, name: str) -> tuple[bool, str]:
+        if name == "imu":
+            return (self.imu.measuring, f"XSENS in {self.imu.state.name} state, waiting for GoToMeasurement")
+        if name == "adc":
+            mode = getattr(self.adc, "mode", None)
+            ok = mode is not None and getattr(mode, "name", str(mode)).upper().startswith("SPI")
+            return ok, f"Bus Pirate in {getattr(mode, 'name', mode)} mode, waiting for binary SPI mode (20x00, 01)"
+        if name == "esc":
+            ok = self.maestro.counters.get("commands", 0) > 0
+            return ok, "no command received by the Maestro"
+        return True, ""
+
+    # -- the tick -------------------------------------------------------------------------------
+    def actuate_and_step(self, t_ns: int) -> None:
+        self.t_ns = t_ns
+        self.maestro.advance(t_ns)
+        self.throttle = tuple(esc.update(t_ns, self.maestro.pulse_us(i, t_ns)) for i, esc in enumerate(self.escs))
+        if t_ns > self.plant.state.t_ns:
+            self.plant.step(t_ns, self.throttle)
+
+    async def emit_rc(self, t_ns: int) -> None:
+        edges = self.ppm.edges_until(t_ns)
+        if edges:
+            self.rc.feed_edges(edges)
+        self.rc.advance(t_ns)
+        out = self.rc.take_output()
+        port = self.ports.get("rc")
+        if out and port is not None:
+            await port.write_confirmed(out)
+        events = self.rc.take_events()
+        if events:
+            self._dispatch("rc", events)
+
+    def latch_analog(self, t_ns: int) -> None:
+        s = self.plant.sensors()
+        self.analog.update(t_ns, s.p_static_Pa, s.f_acc_B_mps2, s.air_T_C)
+
+    def emit_imu(self, t_ns: int) -> tuple[bool, bool]:
+        """Emit IMU sample(s) due at t_ns; returns (emitted, due).
+
+        ``due`` is True when the device is measuring and t_ns is on its output grid even
+        if a fault silenced it: the barrier is still awaited so the flight code's IMU-loss
+        watchdog shows up in sim time (DESIGN.md §4).
+        """
+        s = self.plant.sensors()
+        self.imu.set_motion(s.q_NS, s.omega_S_radps, s.f_S_mps2)
+        self.imu.advance(t_ns)
+        out = self.imu.take_output()
+        events = self.imu.take_events()
+        emitted = any(type(e).__name__ == "SampleSent" for e in events)
+        if out:
+            port = self.ports.get("imu")
+            if port is not None:
+                port.write(out)
+        if events:
+            self._dispatch("imu", events)
+        period = self.imu.output_period_ns
+        due = bool(self.imu.measuring and period and t_ns % period == 0)
+        return emitted, due
+
+    def note_latency(self, t_ns: int, t_emit: int, t_arrival: int | None, realtime: bool = False) -> None:
+        self.latency.append(LatencySample(t_ns, t_emit, t_arrival))
+
+    def finish_tick(self, t_ns: int) -> None:
+        """Everything after the barrier: the radio link, slow devices, their outputs."""
+        self.link.advance(t_ns)
+        for name in ("telemetry", "ground", "esc", "adc"):
+            self.by_port[name].advance(t_ns)
+            self._flush(name)
+        if self.spidriver is not None:
+            self._flush("adc-spidriver")

@@ -1,0 +1,308 @@
+"""One closed-loop run: rig + scenario + seed -> a finished MCAP and a verdict.
+
+``run_flight`` is the unit of work of ``hil run``, of the system tests, of the pytest
+plugin and of campaigns. It builds the run directory (mode 0700) with the device
+symlinks, the plant and every emulator, writes the flight code's config pointing at the
+symlinks, starts the flight code, boots, runs the ticks, and always - on success,
+criteria failure, flight-code crash, boot failure, Ctrl-C or a bench error - stops the
+flight code, closes the ports and finalizes the MCAP.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import math
+import os
+import shutil
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tomli_w
+
+from hil import __version__, clock
+from hil.bench import BootError, EndReason, Mode, TickLoop
+from hil.config import ConfigError, load_toml
+from hil.criteria import CriterionResult, evaluate
+from hil.devices import DeviceSet
+from hil.flightproc import FlightProcess, expand_command
+from hil.record import Recorder
+from hil.rig import Rig, load_rig
+from hil.runlog import RunLogger
+from hil.scenario import Scenario, load_scenario
+from hil.scenario_runner import ScenarioRunner
+from hil.trace import Trace
+from hil.transport.pty import PtyPort
+
+PORTS = ("imu", "adc", "rc", "esc", "telemetry", "ground")
+
+
+@dataclass
+class RunResult:
+    """What a run produced; ``passed`` is the verdict used for the exit status."""
+
+    log_path: Path | None
+    end_reason: EndReason
+    criteria: list[CriterionResult]
+    flight_returncode: int | None
+    flight_stderr_tail: list[str]
+    timing: dict[str, float]
+    counters: dict[str, dict[str, int]]
+    message: str = ""
+    trace: Trace | None = None
+    recorded: dict[str, int] = field(default_factory=dict)
+    dropped: int = 0
+    seed: int = 0
+    sim_s: float = 0.0
+
+    @property
+    def passed(self) -> bool:
+        return self.end_reason is EndReason.COMPLETED and all(c.passed for c in self.criteria)
+
+
+def deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for key, value in over.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = deep_merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def write_flight_config(rig: Rig, scenario: Scenario, ports: dict[str, PtyPort], run_dir: Path) -> Path:
+    """The flight code's own config, from the rig's template, pointing at the symlinks."""
+    template_path = rig.flight_config_path
+    config = load_toml(template_path)
+    config = deep_merge(config, scenario.flight)
+    port_table = dict(config.get("ports", {}))
+    for name in ("imu", "adc", "rc", "esc", "telemetry"):
+        port_table[name] = ports[name].path
+    config["ports"] = port_table
+    path = run_dir / "flight.toml"
+    path.write_text(tomli_w.dumps(config))
+    return path
+
+
+def _timing_summary(loop: TickLoop, tick_ns: int) -> dict[str, float]:
+    st = loop.stats
+    wall_s = max((st.wall_end_ns - st.wall_start_ns) / 1e9, 1e-9)
+    sim_s = st.ticks * tick_ns / 1e9
+    out: dict[str, float] = {
+        "ticks": float(st.ticks),
+        "sim_s": sim_s,
+        "wall_s": wall_s,
+        "rtf": sim_s / wall_s,
+        "barrier_misses": float(st.barrier_misses),
+        "late_ticks": float(st.late_ticks),
+        "esc_commands": float(st.esc_commands),
+    }
+    if st.latencies_ns:
+        lat = np.asarray(st.latencies_ns) / 1e3
+        out |= {
+            "latency_p50_us": float(np.percentile(lat, 50)),
+            "latency_p99_us": float(np.percentile(lat, 99)),
+            "latency_max_us": float(lat.max()),
+        }
+    if st.tick_cost_ns:
+        cost = np.asarray(st.tick_cost_ns) / 1e3
+        out |= {"bench_cost_p50_us": float(np.percentile(cost, 50)), "bench_cost_p99_us": float(np.percentile(cost, 99))}
+    if st.lateness_ns:
+        late = np.asarray(st.lateness_ns) / 1e3
+        out |= {
+            "lateness_p50_us": float(np.percentile(late, 50)),
+            "lateness_p99_us": float(np.percentile(late, 99)),
+            "lateness_max_us": float(late.max()),
+        }
+    return out
+
+
+def default_log_path(out_dir: Path, rig: Rig, scenario: Scenario, seed: int) -> Path:
+    stamp = clock.wall_ns()
+    import datetime
+
+    utc = datetime.datetime.fromtimestamp(stamp / 1e9, tz=datetime.UTC).strftime("%Y%m%dT%H%M%S")
+    return out_dir / f"{utc}_{rig.name}_{scenario.name}_s{seed}.mcap"
+
+
+async def run_flight_async(
+    rig: Rig,
+    scenario: Scenario,
+    *,
+    mode: Mode = Mode.LOCKSTEP,
+    seed: int | None = None,
+    duration_s: float | None = None,
+    out_dir: Path | None = None,
+    log_path: Path | None = None,
+    record: bool = True,
+    progress: Callable[[float, float, str], None] | None = None,
+    keep_run_dir: bool = False,
+    on_ready: Callable[[TickLoop, DeviceSet, ScenarioRunner], None] | None = None,
+    scenario_source: Path | None = None,
+) -> RunResult:
+    """Run one flight (see module docstring). Never raises for run-time failures."""
+    seed = scenario.scenario.seed if seed is None else seed
+    duration_ns = scenario.duration_ns if duration_s is None else int(duration_s * 1e9)
+    run_dir = Path(tempfile.mkdtemp(prefix=f"hil-{rig.name}-"))
+    os.chmod(run_dir, 0o700)
+    dev_dir = run_dir / "dev"
+    dev_dir.mkdir(mode=0o700)
+
+    runner = ScenarioRunner(scenario, rig, scenario_source)
+    devices = DeviceSet(rig, seed=seed, stick_script=runner.stick_script())
+    runner.bind(devices)
+    ports = {name: PtyPort(name, dev_dir) for name in PORTS}
+    for port in ports.values():
+        await port.start()
+    devices.attach(dict(ports))
+
+    run_start_unix_ns = clock.wall_ns()
+    recorder: Recorder | None = None
+    if record:
+        out_dir = out_dir or Path("logs")
+        out_dir.mkdir(parents=True, exist_ok=True)
+        log_path = log_path or default_log_path(out_dir, rig, scenario, seed)
+        recorder = Recorder(
+            log_path,
+            run_start_unix_ns=run_start_unix_ns,
+            metadata=_metadata(rig, scenario, seed, mode, duration_ns),
+            attachments=[
+                (rig.path.name, "application/toml", rig.path.read_bytes()),
+                (rig.flight_config_path.name, "application/toml", rig.flight_config_path.read_bytes()),
+                (f"{scenario.name}.toml", "application/toml", runner.source_bytes()),
+            ],
+        )
+        recorder.start()
+    trace = Trace()
+    logger = RunLogger(recorder, trace, devices, ports, rig, run_start_unix_ns)
+    runner.log_event = logger.event
+
+    flight_config = write_flight_config(rig, scenario, ports, run_dir)
+    flight = FlightProcess(
+        expand_command(rig.flight.command, config=flight_config),
+        cwd=Path.cwd(),
+        on_line=lambda stream, line: logger.flight_line(stream, line),
+    )
+    loop = TickLoop(
+        devices,
+        mode=mode,
+        tick_ns=rig.tick_ns,
+        duration_ns=duration_ns,
+        barrier_timeout_s=rig.flight.barrier_timeout_s,
+        boot_timeout_s=rig.flight.boot_timeout_s,
+        before_tick=runner.before_tick,
+        after_tick=logger.after_tick,
+        flight_exited=flight.exited,
+    )
+    runner.attach_flight(flight)
+    if on_ready is not None:
+        on_ready(loop, devices, runner)
+    if progress is not None:
+        logger.progress = lambda t_ns: progress(t_ns / 1e9, duration_ns / 1e9, runner.phase(t_ns))
+
+    end = EndReason.ERROR
+    message = ""
+    try:
+        await flight.start()
+        try:
+            await loop.boot()
+        except BootError as exc:
+            end, message = EndReason.BOOT_FAILED, str(exc)
+        else:
+            logger.event(0, "run", "boot complete", {"boot_wall_s": 0})
+            end = await loop.run()
+            if end is EndReason.FLIGHT_EXITED:
+                message = f"the flight code exited with status {flight.returncode} at t = {loop.t_ns / 1e9:.3f} s"
+    except asyncio.CancelledError:
+        end, message = EndReason.INTERRUPTED, "interrupted (Ctrl-C)"
+    except Exception as exc:  # a bench bug must still finalize the log
+        end, message = EndReason.ERROR, f"bench error: {type(exc).__name__}: {exc}"
+        logger.event(max(loop.t_ns, 0), "run", "bench error", {"error": repr(exc)})
+    finally:
+        returncode = await flight.stop()
+        with contextlib.suppress(Exception):
+            await asyncio.sleep(0)  # let the last stderr lines reach the logger
+        for port in ports.values():
+            port.close()
+        timing = _timing_summary(loop, rig.tick_ns)
+        criteria = evaluate(scenario.criteria, trace) if end is EndReason.COMPLETED else []
+        timing_criteria = runner.timing_criteria(timing, logger)
+        criteria += timing_criteria
+        counters = logger.counters()
+        stats = None
+        if recorder is not None:
+            logger.finish(end, criteria, timing, message, returncode)
+            final = {
+                "end_reason": end.value,
+                "passed": str(end is EndReason.COMPLETED and all(c.passed for c in criteria)).lower(),
+                "message": message,
+                "flight_returncode": str(returncode),
+                "timing": json.dumps({k: (v if math.isfinite(v) else None) for k, v in timing.items()}),
+            }
+            stats = recorder.close(final)
+        if not keep_run_dir:
+            shutil.rmtree(run_dir, ignore_errors=True)
+    return RunResult(
+        log_path=stats.path if stats else None,
+        end_reason=end,
+        criteria=criteria,
+        flight_returncode=returncode,
+        flight_stderr_tail=list(flight.last_stderr),
+        timing=timing,
+        counters=counters,
+        message=message,
+        trace=trace,
+        recorded=dict(stats.messages_by_topic) if stats else {},
+        dropped=stats.dropped if stats else 0,
+        seed=seed,
+        sim_s=loop.stats.ticks * rig.tick_ns / 1e9,
+    )
+
+
+def _metadata(rig: Rig, scenario: Scenario, seed: int, mode: Mode, duration_ns: int) -> dict[str, str]:
+    import platform
+    import subprocess
+
+    try:
+        sha = subprocess.run(
+            ["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=Path(__file__).parent, timeout=5
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain"], capture_output=True, text=True, cwd=Path(__file__).parent, timeout=5
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        sha, dirty = "", ""
+    return {
+        "rig": rig.name,
+        "rig_file": str(rig.path),
+        "scenario": scenario.name,
+        "seed": str(seed),
+        "mode": mode.value,
+        "duration_s": f"{duration_ns / 1e9:g}",
+        "tick_ns": str(rig.tick_ns),
+        "bench_version": __version__,
+        "git_sha": sha or "unknown",
+        "git_dirty": str(bool(dirty)).lower(),
+        "python": platform.python_version(),
+        "host": platform.node(),
+    }
+
+
+def run_flight(
+    rig_name: str | Path | None = None,
+    scenario_name: str | Path | None = None,
+    **kwargs: Any,
+) -> RunResult:
+    """Blocking wrapper: resolve files, run, return the result (campaign unit of work)."""
+    rig = load_rig(rig_name)
+    source = rig.scenario_path(scenario_name)
+    scenario = load_scenario(source)
+    return asyncio.run(run_flight_async(rig, scenario, scenario_source=source, **kwargs))
+
+
+__all__ = ["ConfigError", "RunResult", "run_flight", "run_flight_async"]

@@ -1,0 +1,132 @@
+"""Plays a scenario during a run: sticks, plant events, faults, phases, timing budgets.
+
+The stick script is handed to the RC emulator once (it is a function of sim time);
+plant events and faults fire from ``before_tick`` when their time comes, and each one is
+logged as an event on ``/hil/events``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from hil.criteria import CriterionResult
+from hil.scenario import GustEvent, PayloadEvent, Scenario, WindEvent
+
+if TYPE_CHECKING:
+    from hil.devices import DeviceSet
+    from hil.flightproc import FlightProcess
+    from hil.rig import Rig
+
+S = 1_000_000_000
+
+#: Timing budgets a scenario may declare in its [timing] table: key -> (timing key, sense)
+TIMING_BUDGETS = {
+    "latency_p99_us_max": ("latency_p99_us", "max"),
+    "latency_max_us_max": ("latency_max_us", "max"),
+    "barrier_misses_max": ("barrier_misses", "max"),
+    "lateness_p99_us_max": ("lateness_p99_us", "max"),
+    "late_ticks_max": ("late_ticks", "max"),
+    "compute_p99_us_max": ("fc_compute_p99_us", "max"),
+    "period_jitter_p99_us_max": ("period_jitter_p99_us", "max"),
+}
+
+EventLogger = Callable[[int, str, str, dict[str, Any]], None]
+
+
+class ScenarioRunner:
+    """Turns a :class:`Scenario` into actions on the devices, tick by tick."""
+
+    def __init__(self, scenario: Scenario, rig: Rig, source: Path | None = None) -> None:
+        self.scenario = scenario
+        self.rig = rig
+        self.source = source
+        self.devices: DeviceSet | None = None
+        self.flight: FlightProcess | None = None
+        self.log_event: EventLogger = lambda t_ns, kind, name, detail: None
+        self._timed: list[tuple[int, Callable[[int], None], str, dict[str, Any]]] = []
+        self._gusts: list[GustEvent] = []
+        self._next = 0
+        for key in scenario.timing:
+            if key not in TIMING_BUDGETS:
+                from hil.config import ConfigError
+
+                raise ConfigError(
+                    f"scenario {scenario.name}: [timing] {key}: unknown budget (known: {', '.join(TIMING_BUDGETS)})"
+                )
+
+    # -- set-up -----------------------------------------------------------------------------
+    def stick_script(self) -> object:
+        """The RC emulator's stick script built from the scenario's [[sticks]]."""
+        from emulators.rc.sticks import build_script
+
+        return build_script([entry.model_dump() for entry in self.scenario.sticks])
+
+    def source_bytes(self) -> bytes:
+        if self.source is not None and self.source.exists():
+            return self.source.read_bytes()
+        import tomli_w
+
+        return tomli_w.dumps(self.scenario.model_dump(exclude_none=True)).encode()
+
+    def bind(self, devices: DeviceSet) -> None:
+        self.devices = devices
+        plant = devices.plant
+        for ev in self.scenario.events:
+            t_ns = int(round(ev.t_s * S))
+            if isinstance(ev, PayloadEvent):
+                self._at(t_ns, lambda t, e=ev: plant.set_payload(e.extra_mass_kg, e.r_B_m), "payload", ev.model_dump())
+            elif isinstance(ev, WindEvent):
+                until = None if ev.duration_s is None else t_ns + int(round(ev.duration_s * S))
+                self._at(t_ns, lambda t, e=ev, u=until: plant.add_wind(e.wind_N_mps, u), "wind", ev.model_dump())
+            elif isinstance(ev, GustEvent):
+                self._gusts.append(ev)
+                self._at(t_ns, lambda t: None, "gust", ev.model_dump())
+        self._timed.sort(key=lambda item: item[0])
+
+    def attach_flight(self, flight: FlightProcess) -> None:
+        self.flight = flight
+
+    def _at(self, t_ns: int, action: Callable[[int], None], name: str, detail: dict[str, Any]) -> None:
+        self._timed.append((t_ns, action, name, detail))
+
+    # -- during the run ----------------------------------------------------------------------------
+    def before_tick(self, k: int, t_ns: int) -> None:
+        while self._next < len(self._timed) and self._timed[self._next][0] <= t_ns:
+            at, action, name, detail = self._timed[self._next]
+            action(t_ns)
+            self.log_event(t_ns, "scenario", name, detail)
+            self._next += 1
+        if self._gusts and self.devices is not None:
+            self.devices.plant.set_gust(self._gust_wind(t_ns))
+
+    def _gust_wind(self, t_ns: int) -> tuple[float, float, float]:
+        total = [0.0, 0.0, 0.0]
+        t = t_ns / S
+        for g in self._gusts:
+            if g.t_s <= t <= g.t_s + g.duration_s:
+                shape = 0.5 * (1 - math.cos(2 * math.pi * (t - g.t_s) / g.duration_s))
+                for i in range(3):
+                    total[i] += shape * g.wind_N_mps[i]
+        return (total[0], total[1], total[2])
+
+    def phase(self, t_ns: int) -> str:
+        label = ""
+        for t_s, name in self.scenario.scenario.phases:
+            if t_ns / S >= t_s:
+                label = name
+        return label
+
+    # -- after the run --------------------------------------------------------------------------------
+    def timing_criteria(self, timing: dict[str, float], logger: object) -> list[CriterionResult]:
+        """The scenario's [timing] budgets checked against the run's timing figures."""
+        out: list[CriterionResult] = []
+        for key, bound in self.scenario.timing.items():
+            field, _ = TIMING_BUDGETS[key]
+            value = timing.get(field, math.nan)
+            ok = math.isfinite(value) and value <= bound
+            detail = "" if math.isfinite(value) else f"no {field} figure in this run"
+            out.append(CriterionResult(f"timing: {field}", f"timing.{field}", "max", value, f"<= {bound:g}", ok, detail))
+        return out
