@@ -1,0 +1,1 @@
+"""State estimation: :mod:`flightcode.estimation.altitude_kf` (barometer + accelerometer KF)."""
