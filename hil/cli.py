@@ -1,0 +1,191 @@
+"""The ``hil`` command.
+
+    hil run [RIG] [--scenario S] [--mode lockstep|realtime] [--seed N] [--duration T] [--out DIR]
+    hil devices [RIG]            bring the emulated devices up on ptys for a hand-started flight code
+    hil report LOG               PNG plots of a run (attitude, altitude, motors, timing)
+    hil timing LOG               timing of the 400 Hz loop from a log (with a histogram PNG)
+    hil replay LOG               play a recorded session's device bytes back on ptys
+    hil recover LOG              salvage a killed run's .part file into a valid MCAP
+    hil campaign FILE            many runs (Dask)
+    hil perf                     benchmarks of this machine and the bench
+    hil faults                   the fault catalogue with parameters and units
+"""
+
+from __future__ import annotations
+
+import asyncio
+import signal
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+app = typer.Typer(
+    help="Hardware-in-the-loop bench for the Wang/Ma/Sun quad-rotor MAV.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+console = Console()
+err_console = Console(stderr=True)
+
+
+def _fail(message: str, code: int = 2) -> None:
+    err_console.print(f"[bold red]error:[/] {message}")
+    raise typer.Exit(code)
+
+
+@app.command()
+def run(
+    rig: Annotated[Optional[str], typer.Argument(help="Rig file or name under rigs/ (default: paper-quad).")] = None,
+    scenario: Annotated[Optional[str], typer.Option("--scenario", "-s", help="Scenario file or name under rigs/scenarios/ (default: the rig's).")] = None,
+    mode: Annotated[str, typer.Option(help="lockstep (deterministic, as fast as possible) or realtime (400 Hz wall clock).")] = "lockstep",
+    seed: Annotated[Optional[int], typer.Option(help="Run seed (default: the scenario's).")] = None,
+    duration: Annotated[Optional[float], typer.Option(help="Sim seconds to run (default: the scenario's).")] = None,
+    out: Annotated[Path, typer.Option(help="Directory for the MCAP log.")] = Path("logs"),
+    no_record: Annotated[bool, typer.Option("--no-record", help="Do not write an MCAP file.")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+) -> None:
+    """Fly the flight code against the emulated vehicle and write one MCAP log."""
+    from hil.bench import Mode
+    from hil.config import ConfigError
+    from hil.rig import load_rig
+    from hil.run import run_flight_async
+    from hil.scenario import load_scenario
+    from hil.summary import print_summary
+
+    try:
+        rig_obj = load_rig(rig)
+        source = rig_obj.scenario_path(scenario)
+        scenario_obj = load_scenario(source)
+        run_mode = Mode(mode)
+    except ConfigError as exc:
+        _fail(str(exc))
+    except ValueError:
+        _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    progress = Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        TextColumn("{task.fields[sim]}"),
+        TextColumn("RTF {task.fields[rtf]}"),
+        TextColumn("{task.fields[phase]}"),
+        TimeElapsedColumn(),
+        console=console,
+        disable=quiet,
+        transient=True,
+    )
+
+    async def main() -> object:
+        from hil import clock
+
+        task = progress.add_task(f"{rig_obj.name}/{scenario_obj.name}", total=1.0, sim="", rtf="-", phase="boot")
+        start = {"wall": 0}
+
+        def on_progress(sim_s: float, total_s: float, phase: str) -> None:
+            now = clock.monotonic_ns()
+            if not start["wall"]:
+                start["wall"] = now
+            wall = max((now - start["wall"]) / 1e9, 1e-6)
+            progress.update(
+                task,
+                completed=sim_s / total_s if total_s else 1.0,
+                sim=f"{sim_s:6.2f}/{total_s:.1f} s",
+                rtf=f"{sim_s / wall:5.1f}x" if sim_s > 0.5 else "-",
+                phase=phase,
+            )
+
+        current = asyncio.current_task()
+        loop = asyncio.get_running_loop()
+        assert current is not None
+        loop.add_signal_handler(signal.SIGINT, current.cancel)
+        loop.add_signal_handler(signal.SIGTERM, current.cancel)
+        try:
+            return await run_flight_async(
+                rig_obj,
+                scenario_obj,
+                mode=run_mode,
+                seed=seed,
+                duration_s=duration,
+                out_dir=out,
+                record=not no_record,
+                progress=on_progress,
+                scenario_source=source,
+            )
+        finally:
+            loop.remove_signal_handler(signal.SIGINT)
+            loop.remove_signal_handler(signal.SIGTERM)
+
+    with progress:
+        result = asyncio.run(main())
+    print_summary(console, result, rig_obj, scenario_obj)  # type: ignore[arg-type]
+    raise typer.Exit(0 if result.passed else 1)  # type: ignore[attr-defined]
+
+
+@app.command()
+def devices(
+    rig: Annotated[Optional[str], typer.Argument(help="Rig file or name under rigs/ (default: paper-quad).")] = None,
+    scenario: Annotated[Optional[str], typer.Option("--scenario", "-s", help="Scenario whose sticks drive the RC (default: the rig's).")] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the device models.")] = 1,
+    duration: Annotated[Optional[float], typer.Option(help="Stop after this many seconds (default: until Ctrl-C).")] = None,
+) -> None:
+    """Bring the emulated devices up on ptys and print their paths, streaming in real time.
+
+    Point any client (the flight code started by hand, miniterm, an Xbus tool) at the
+    printed paths. The plant flies on the ESC commands the Maestro receives. Ctrl-C stops.
+    """
+    from hil.config import ConfigError
+    from hil.devices_cmd import serve_devices
+    from hil.rig import load_rig
+    from hil.scenario import load_scenario
+
+    try:
+        rig_obj = load_rig(rig)
+        scenario_obj = load_scenario(rig_obj.scenario_path(scenario))
+    except ConfigError as exc:
+        _fail(str(exc))
+    asyncio.run(serve_devices(rig_obj, scenario_obj, seed=seed, duration_s=duration, console=console))
+
+
+@app.command()
+def recover(
+    log: Annotated[Path, typer.Argument(help="A killed run's .mcap.part (or .mcap) file.")],
+    out: Annotated[Optional[Path], typer.Option(help="Output file (default: LOG without .part, or LOG.recovered.mcap).")] = None,
+) -> None:
+    """Salvage a killed run's MCAP: every complete chunk, metadata and attachments."""
+    from hil.record import recover as do_recover
+
+    if not log.exists():
+        _fail(f"{log}: no such file")
+    if out is None:
+        name = log.name
+        out = log.with_name(name[: -len(".part")]) if name.endswith(".part") else log.with_suffix(".recovered.mcap")
+    n = do_recover(log, out)
+    console.print(f"recovered {n} messages -> {out}")
+
+
+@app.command()
+def report(
+    log: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
+    out: Annotated[Optional[Path], typer.Option(help="Directory for the PNG plots (default: next to the log).")] = None,
+) -> None:
+    """Plot a run: attitude, altitude, motors and timing, as PNG files."""
+    from hil.report import make_report
+
+    if not log.exists():
+        _fail(f"{log}: no such file")
+    for path in make_report(log, out or log.parent):
+        console.print(str(path))
+
+
+def main() -> None:  # pragma: no cover - console entry
+    app()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(app())

@@ -1,0 +1,101 @@
+"""``hil devices``: the emulated devices on ptys, in real time, for a hand-started client.
+
+Sim time starts at once and runs with the wall clock (400 Hz ticks from the precise
+pacer); the plant flies on whatever the Maestro receives, the RC plays the scenario's
+sticks, and every device answers its protocol. Ctrl-C (or ``duration_s``) stops it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import os
+import shutil
+import signal
+import tempfile
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from hil.bench import Mode, TickLoop
+from hil.devices import DeviceSet
+from hil.rig import Rig
+from hil.scenario import Scenario
+from hil.scenario_runner import ScenarioRunner
+from hil.transport.pty import PtyPort
+
+DEVICE_PORTS = ("imu", "adc", "adc-spidriver", "rc", "esc", "telemetry", "ground")
+
+DESCRIPTIONS = {
+    "imu": "XSENS MTi (Xbus)",
+    "adc": "MCP3204 behind a Bus Pirate v3 (binary SPI)",
+    "adc-spidriver": "MCP3204 behind a SPIDriver",
+    "rc": "PPM receiver through the timer-capture front-end",
+    "esc": "Pololu Maestro -> 4 ESCs",
+    "telemetry": "XBee-PRO, vehicle side (API mode)",
+    "ground": "XBee-PRO, ground-station side",
+}
+
+
+async def serve_devices(
+    rig: Rig,
+    scenario: Scenario,
+    *,
+    seed: int,
+    duration_s: float | None,
+    console: Console,
+    ready: asyncio.Event | None = None,
+    run_dir: Path | None = None,
+) -> dict[str, dict[str, int]]:
+    """Serve until Ctrl-C or ``duration_s``; returns the device counters."""
+    own_dir = run_dir is None
+    run_dir = run_dir or Path(tempfile.mkdtemp(prefix=f"hil-devices-{rig.name}-"))
+    os.chmod(run_dir, 0o700)
+    dev_dir = run_dir / "dev"
+    dev_dir.mkdir(mode=0o700, exist_ok=True)
+    runner = ScenarioRunner(scenario, rig)
+    devices = DeviceSet(rig, seed=seed, stick_script=runner.stick_script(), with_spidriver=True)
+    runner.bind(devices)
+    ports = {name: PtyPort(name, dev_dir) for name in DEVICE_PORTS}
+    for port in ports.values():
+        await port.start()
+    devices.attach(dict(ports))
+
+    table = Table(title=f"{rig.name}: emulated devices (Ctrl-C to stop)")
+    table.add_column("port")
+    table.add_column("path")
+    table.add_column("device")
+    for name, port in ports.items():
+        table.add_row(name, port.path, DESCRIPTIONS[name])
+    console.print(table)
+
+    duration_ns = int((duration_s if duration_s is not None else 10 * 365 * 86400.0) * 1e9)
+    loop = TickLoop(
+        devices,
+        mode=Mode.REALTIME,
+        tick_ns=rig.tick_ns,
+        duration_ns=duration_ns,
+        barrier_timeout_s=rig.flight.barrier_timeout_s,
+        boot_timeout_s=0.0,
+        before_tick=runner.before_tick,
+    )
+    task = asyncio.current_task()
+    aloop = asyncio.get_running_loop()
+    if task is not None:
+        with contextlib.suppress(NotImplementedError, RuntimeError):
+            aloop.add_signal_handler(signal.SIGINT, task.cancel)
+    if ready is not None:
+        ready.set()
+    try:
+        await loop.run()
+    except asyncio.CancelledError:
+        console.print("stopped")
+    finally:
+        with contextlib.suppress(NotImplementedError, RuntimeError):
+            aloop.remove_signal_handler(signal.SIGINT)
+        for port in ports.values():
+            port.close()
+        if own_dir:
+            shutil.rmtree(run_dir, ignore_errors=True)
+    return {name: dict(dev.counters) for name, dev in devices.by_port.items()}
