@@ -60,9 +60,24 @@ class ScenarioRunner:
     # -- set-up -----------------------------------------------------------------------------
     def stick_script(self) -> object:
         """The RC emulator's stick script built from the scenario's [[sticks]]."""
-        from emulators.rc.sticks import build_script
+        from emulators.rc.script import Loss, Macro, Setpoint, Sine, StickScript
 
-        return build_script([entry.model_dump() for entry in self.scenario.sticks])
+        segments: list[object] = []
+        for e in self.scenario.sticks:
+            if e.pulse_us is not None:
+                assert e.channel is not None
+                segments.append(Setpoint(e.t_s, e.channel, e.pulse_us, e.ramp_s))
+            elif e.sine is not None:
+                assert e.channel is not None
+                s = e.sine
+                segments.append(Sine(e.t_s, e.channel, s.amplitude_us, s.freq_hz, s.duration_s, s.offset_us, s.fade_s))
+            elif e.action == "loss":
+                assert e.duration_s is not None
+                segments.append(Loss(e.t_s, e.duration_s))
+            else:
+                assert e.action is not None
+                segments.append(Macro(e.t_s, e.action) if e.duration_s is None else Macro(e.t_s, e.action, e.duration_s))
+        return StickScript(segments)  # type: ignore[arg-type]
 
     def source_bytes(self) -> bytes:
         if self.source is not None and self.source.exists():

@@ -1,0 +1,191 @@
+"""Rig files: one vehicle and its wiring, validated into the components' parameter classes.
+
+Layout of a rig TOML (units in key names; every table optional, defaults = the paper's
+vehicle; unknown tables and keys are errors naming the file and key):
+
+    [rig]        name, description, tick_ns, default_scenario
+    [plant]      -> hil.plant.params.PlantParams
+    [imu]        -> emulators.xsens.params.XsensParams
+    [adc]        bridge = "buspirate"; [adc.mcp3204], [adc.buspirate], [adc.spidriver]
+    [analog]     -> emulators.analog.params.AnalogParams
+    [rc]         frontend = "capture" | "sbus"; [rc.ppm], [rc.capture], [rc.sbus]
+    [esc]        [esc.maestro], [esc.esc]
+    [telemetry]  [telemetry.vehicle], [telemetry.ground], [telemetry.link]
+    [flight]     command, config (the flight code's config template), timeouts
+    [record]     recording rates
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from hil.config import ConfigError, check_keys, load_toml, resolve_rig, resolve_scenario, validate
+
+#: table -> "module:Class" of the component parameters it validates into
+COMPONENTS: dict[str, str] = {
+    "plant": "hil.plant.params:PlantParams",
+    "imu": "emulators.xsens.params:XsensParams",
+    "adc.mcp3204": "emulators.mcp3204.params:Mcp3204Params",
+    "adc.buspirate": "emulators.buspirate.params:BusPirateParams",
+    "adc.spidriver": "emulators.spidriver.params:SpiDriverParams",
+    "analog": "emulators.analog.params:AnalogParams",
+    "rc.ppm": "emulators.rc.params:PpmParams",
+    "rc.capture": "emulators.rc.params:CaptureParams",
+    "rc.sbus": "emulators.rc.params:SbusParams",
+    "esc.maestro": "emulators.maestro.params:MaestroParams",
+    "esc.esc": "emulators.esc.params:EscParams",
+    "telemetry.vehicle": "emulators.xbee.params:XBeeParams",
+    "telemetry.ground": "emulators.xbee.params:XBeeParams",
+    "telemetry.link": "emulators.xbee.params:LinkParams",
+}
+
+
+def _component_class(spec: str) -> type:
+    module, _, name = spec.partition(":")
+    return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+
+
+@dataclass(frozen=True)
+class RigHeader:
+    __pydantic_config__ = {"extra": "forbid"}
+    name: str = "paper-quad"
+    description: str = ""
+    tick_ns: int = 2_500_000
+    default_scenario: str = "mission"
+
+
+@dataclass(frozen=True)
+class FlightSection:
+    """How the bench starts the flight code. ``{python}`` and ``{config}`` are substituted."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+    command: tuple[str, ...] = ("{python}", "-m", "flightcode", "--config", "{config}")
+    #: the flight code's own config file (its format), relative to the rig file; the bench
+    #: fills its [ports] table with the run's symlinks
+    config: str = "flightcode-paper-quad.toml"
+    boot_timeout_s: float = 20.0
+    barrier_timeout_s: float = 0.5
+    required_devices: tuple[str, ...] = ("imu", "adc")
+
+
+@dataclass(frozen=True)
+class RecordSection:
+    __pydantic_config__ = {"extra": "forbid"}
+    truth_divider: int = 1  #: /sim/truth every N ticks
+    pose_divider: int = 8  #: /tf and /sim/pose every N ticks (50 Hz)
+    counters_divider: int = 400  #: device counters every N ticks (1 Hz)
+
+
+@dataclass(frozen=True)
+class AdcSection:
+    bridge: Literal["buspirate", "spidriver"]
+    mcp3204: Any
+    buspirate: Any
+    spidriver: Any
+
+
+@dataclass(frozen=True)
+class RcSection:
+    frontend: Literal["capture", "sbus"]
+    ppm: Any
+    capture: Any
+    sbus: Any
+
+
+@dataclass(frozen=True)
+class EscSection:
+    maestro: Any
+    esc: Any
+
+
+@dataclass(frozen=True)
+class TelemetrySection:
+    vehicle: Any
+    ground: Any
+    link: Any
+
+
+@dataclass(frozen=True)
+class Rig:
+    path: Path
+    header: RigHeader
+    plant: Any
+    imu: Any
+    adc: AdcSection
+    analog: Any
+    rc: RcSection
+    esc: EscSection
+    telemetry: TelemetrySection
+    flight: FlightSection
+    record: RecordSection
+    raw: dict[str, Any] = field(repr=False, default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        return self.header.name
+
+    @property
+    def tick_ns(self) -> int:
+        return self.header.tick_ns
+
+    @property
+    def flight_config_path(self) -> Path:
+        return (self.path.parent / self.flight.config).resolve()
+
+    def scenario_path(self, name_or_path: str | Path | None) -> Path:
+        return resolve_scenario(name_or_path or self.header.default_scenario, self.path)
+
+
+def _table(data: dict[str, Any], dotted: str) -> dict[str, Any]:
+    node: Any = data
+    for part in dotted.split("."):
+        node = node.get(part, {}) if isinstance(node, dict) else {}
+    if not isinstance(node, dict):
+        raise ConfigError(f"[{dotted}] must be a table")
+    return node
+
+
+def load_rig(name_or_path: str | Path | None = None) -> Rig:
+    """Load and validate a rig file (by path or by name under rigs/)."""
+    path = resolve_rig(name_or_path)
+    data = load_toml(path)
+    check_keys(
+        data,
+        {"rig", "plant", "imu", "adc", "analog", "rc", "esc", "telemetry", "flight", "record"},
+        file=path,
+        section="top level",
+    )
+    check_keys(_table(data, "adc"), {"bridge", "mcp3204", "buspirate", "spidriver"}, file=path, section="adc")
+    check_keys(_table(data, "rc"), {"frontend", "ppm", "capture", "sbus"}, file=path, section="rc")
+    check_keys(_table(data, "esc"), {"maestro", "esc"}, file=path, section="esc")
+    check_keys(_table(data, "telemetry"), {"vehicle", "ground", "link"}, file=path, section="telemetry")
+    parts = {
+        key: validate(_component_class(spec), _table(data, key), file=path, section=key)
+        for key, spec in COMPONENTS.items()
+    }
+    bridge = _table(data, "adc").get("bridge", "buspirate")
+    frontend = _table(data, "rc").get("frontend", "capture")
+    if bridge not in ("buspirate", "spidriver"):
+        raise ConfigError(f"{path}: [adc] bridge: must be 'buspirate' or 'spidriver' (got {bridge!r})")
+    if frontend not in ("capture", "sbus"):
+        raise ConfigError(f"{path}: [rc] frontend: must be 'capture' or 'sbus' (got {frontend!r})")
+    rig = Rig(
+        path=path.resolve(),
+        header=validate(RigHeader, _table(data, "rig"), file=path, section="rig"),
+        plant=parts["plant"],
+        imu=parts["imu"],
+        adc=AdcSection(bridge, parts["adc.mcp3204"], parts["adc.buspirate"], parts["adc.spidriver"]),
+        analog=parts["analog"],
+        rc=RcSection(frontend, parts["rc.ppm"], parts["rc.capture"], parts["rc.sbus"]),
+        esc=EscSection(parts["esc.maestro"], parts["esc.esc"]),
+        telemetry=TelemetrySection(parts["telemetry.vehicle"], parts["telemetry.ground"], parts["telemetry.link"]),
+        flight=validate(FlightSection, _table(data, "flight"), file=path, section="flight"),
+        record=validate(RecordSection, _table(data, "record"), file=path, section="record"),
+        raw=data,
+    )
+    if not rig.flight_config_path.exists():
+        raise ConfigError(f"{path}: [flight] config: {rig.flight_config_path} does not exist")
+    return rig

@@ -1,0 +1,152 @@
+"""Timing of the flight code's 400 Hz loop, from a run's MCAP log (or arrays).
+
+Figures (all microseconds unless noted):
+
+* **period**: host-time interval between consecutive ESC commands (the loop's output
+  cadence). In realtime mode this is the loop's real period; in lockstep it is paced by
+  the bench and reported for completeness.
+* **latency**: IMU sample emitted (bench, host clock) -> ESC command received. This is the
+  flight code's response time including both pty hops. In lockstep it is the compute
+  latency of one sample, checked against the 2.5 ms budget even though the run itself is
+  faster than real time.
+* **jitter**: period minus its nominal value.
+* **misses**: samples whose latency exceeded the budget, plus samples with no command at
+  all (barrier timeouts).
+* **compute**: the flight code's own per-loop compute time as it reports in telemetry.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+NOMINAL_PERIOD_US = 2500.0
+
+
+@dataclass(frozen=True)
+class Stats:
+    n: int
+    p50: float
+    p99: float
+    p999: float
+    max: float
+    mean: float
+
+    @staticmethod
+    def of(values: np.ndarray) -> Stats:
+        v = np.asarray(values, dtype=float)
+        v = v[np.isfinite(v)]
+        if v.size == 0:
+            nan = float("nan")
+            return Stats(0, nan, nan, nan, nan, nan)
+        return Stats(
+            int(v.size),
+            float(np.percentile(v, 50)),
+            float(np.percentile(v, 99)),
+            float(np.percentile(v, 99.9)),
+            float(v.max()),
+            float(v.mean()),
+        )
+
+
+@dataclass(frozen=True)
+class TimingReport:
+    samples: int
+    budget_us: float
+    latency_us: Stats
+    period_us: Stats
+    jitter_us: Stats  #: |period - nominal|
+    compute_us: Stats
+    misses: int  #: latency over budget
+    no_command: int  #: barrier timeouts (no ESC command for a sample)
+
+    def as_dict(self) -> dict[str, object]:
+        return asdict(self)
+
+
+def analyze_arrays(
+    latency_us: np.ndarray,
+    esc_arrival_host_ns: np.ndarray,
+    *,
+    compute_us: np.ndarray | None = None,
+    budget_us: float = NOMINAL_PERIOD_US,
+    nominal_period_us: float = NOMINAL_PERIOD_US,
+) -> TimingReport:
+    """The report from raw per-sample arrays; negative latency marks a missing command."""
+    lat = np.asarray(latency_us, dtype=float)
+    missing = lat < 0
+    lat_ok = lat[~missing]
+    arrivals = np.asarray(esc_arrival_host_ns, dtype=np.int64)
+    arrivals = arrivals[arrivals > 0]
+    period = np.diff(arrivals) / 1e3 if arrivals.size > 1 else np.zeros(0)
+    jitter = np.abs(period - nominal_period_us)
+    comp = np.zeros(0) if compute_us is None else np.asarray(compute_us, dtype=float)
+    return TimingReport(
+        samples=int(lat.size),
+        budget_us=budget_us,
+        latency_us=Stats.of(lat_ok),
+        period_us=Stats.of(period),
+        jitter_us=Stats.of(jitter),
+        compute_us=Stats.of(comp),
+        misses=int(np.sum(lat_ok > budget_us)),
+        no_command=int(np.sum(missing)),
+    )
+
+
+def analyze_log(log: Path, budget_us: float = NOMINAL_PERIOD_US) -> TimingReport:
+    """The report of a run's MCAP (topics /hil/timing/tick and /fc/telemetry)."""
+    from hil.record import read_topic
+
+    tick = read_topic(log, "/hil/timing/tick")
+    tm = read_topic(log, "/fc/telemetry")
+    compute = None
+    for key in ("compute_last_us", "compute_us", "loop_compute_us"):
+        if key in tm and tm[key].size:
+            compute = tm[key]
+            break
+    if not tick or "latency_us" not in tick:
+        return analyze_arrays(np.zeros(0), np.zeros(0), compute_us=compute, budget_us=budget_us)
+    return analyze_arrays(tick["latency_us"], tick["esc_arrival_host_ns"], compute_us=compute, budget_us=budget_us)
+
+
+def plot_latency(log: Path, png: Path, budget_us: float = NOMINAL_PERIOD_US) -> Path | None:
+    """Latency over time and its histogram, with the budget marked; None if no timing data."""
+    from hil.record import read_topic
+
+    tick = read_topic(log, "/hil/timing/tick")
+    if not tick or "latency_us" not in tick or tick["latency_us"].size == 0:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    lat = tick["latency_us"].astype(float)
+    t = (tick["log_time_ns"] - tick["log_time_ns"][0]) / 1e9
+    ok = lat >= 0
+    arrivals = tick["esc_arrival_host_ns"].astype(np.int64)
+    arrivals = arrivals[arrivals > 0]
+    period = np.diff(arrivals) / 1e3
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4))
+    axes[0].plot(t[ok], lat[ok], ".", ms=1)
+    axes[0].axhline(budget_us, color="r", ls="--", label=f"budget {budget_us:g} us")
+    axes[0].set_xlabel("sim time [s]")
+    axes[0].set_ylabel("IMU -> ESC latency [us]")
+    axes[0].legend()
+    axes[1].hist(lat[ok], bins=100, log=True)
+    axes[1].axvline(budget_us, color="r", ls="--")
+    axes[1].set_xlabel("latency [us]")
+    axes[1].set_ylabel("samples")
+    if period.size:
+        axes[2].hist(period, bins=100, log=True)
+        axes[2].axvline(NOMINAL_PERIOD_US, color="g", ls="--", label="2.5 ms")
+        axes[2].legend()
+    axes[2].set_xlabel("ESC command period [us] (host clock)")
+    for ax in axes:
+        ax.grid(True)
+    fig.tight_layout()
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
+    return png
