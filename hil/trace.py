@@ -62,7 +62,16 @@ class Trace:
         return self._cache[key]
 
     def signal(self, name: str, grid: str = "truth") -> tuple[np.ndarray, np.ndarray]:
-        """(t_s, values) of a signal on the tick grid of ``grid``; KeyError if unknown."""
+        """(t_s, values) of a signal on the tick grid of ``grid``; KeyError if unknown.
+
+        ``"a - b"`` is the difference of two signals (e.g. a tracking error
+        ``truth.roll_deg - tm.roll_ref_deg``).
+        """
+        if " - " in name:
+            left, right = (part.strip() for part in name.split(" - ", 1))
+            t_s, a = self.signal(left, grid)
+            _, b = self.signal(right, grid)
+            return t_s, a - b
         col = None
         m = _COLUMN.match(name)
         if m:

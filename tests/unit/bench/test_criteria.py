@@ -100,3 +100,10 @@ def test_irregular_series_held_on_the_tick_grid() -> None:
     np.testing.assert_allclose(v, [1, 1, 1, 1, 3, 3, 3, 3])
     _, col = tr.signal("esc.pulse_us[2]")
     assert col.shape == (8,)
+
+
+def test_difference_signal_is_a_tracking_error() -> None:
+    tr = _trace(lambda t: (5.0, 0, (1500,) * 4), n=8)
+    tr.point("tm.roll_ref_deg", 0, 4.5)
+    (res,) = evaluate([_c(signal="truth.roll_deg - tm.roll_ref_deg", metric="max_abs", max=0.6)], tr)
+    assert res.passed and res.value == pytest.approx(0.5)
