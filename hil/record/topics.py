@@ -1,0 +1,274 @@
+"""The topic table: every MCAP topic of a run, its JSON schema, units and an example payload.
+
+One place. Adding a topic is one ``TopicSpec`` line in ``_TABLE`` (plus its schema if new).
+Logging to a topic that is not in the table is a programming error and raises
+``UnknownTopicError`` at ``Recorder.log()`` time.
+
+Every channel uses message encoding ``json`` with a ``jsonschema`` schema. Our own schemas
+(``hil.*``) are built here; the Foxglove well-known ones (``foxglove.FrameTransform``,
+``foxglove.PoseInFrame``, ``foxglove.Log``) are the official JSON schemas vendored in
+``schemas/`` (see schemas/README.md). Schemas stay inside the subset Foxglove's JSON-schema
+parser accepts (root ``object`` with ``properties``; fields ``boolean``/``string``
+(``contentEncoding: base64`` for bytes)/``number``/``integer``/``object``/``array`` of those,
+or ``oneOf`` numeric constants), so its panels can address every field.
+
+The writer completes payloads according to ``TopicSpec.stamp``:
+
+* ``Stamp.SIM``: ``t_ns`` (sim time, ns) is set from the ``log()`` argument;
+* ``Stamp.TIMING``: ``t_ns`` and ``t_host_ns`` (host CLOCK_MONOTONIC, ns) are set;
+* ``Stamp.FOXGLOVE``: ``timestamp = {"sec", "nsec"}`` is set to the message's log time
+  (Unix time of the sim instant), after the spec's ``defaults``.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+SCHEMA_DIR = Path(__file__).with_name("schemas")
+
+#: Ports that have wire taps (docs/architecture.md "Ports"); one line to add one.
+WIRE_PORTS: tuple[str, ...] = ("imu", "adc", "adc-spidriver", "rc", "esc", "telemetry", "ground")
+#: Wire directions, named from the bench's side (hil.transport.base.Direction values).
+WIRE_DIRECTIONS: tuple[str, ...] = ("tx", "rx")
+
+
+class UnknownTopicError(LookupError):
+    """A topic (or wire port/direction) that is not in the topic table."""
+
+
+class Stamp(enum.Enum):
+    """What the writer adds to a payload before encoding it."""
+
+    SIM = "sim"  #: t_ns
+    TIMING = "timing"  #: t_ns and t_host_ns
+    FOXGLOVE = "foxglove"  #: timestamp {sec, nsec} = log time
+
+
+@dataclass(frozen=True)
+class TopicSpec:
+    """One topic. ``schema`` is the JSON schema (dict); ``example`` is a payload as passed to
+    ``Recorder.log`` (bytes for wire topics); ``units`` summarises units and frames for the docs."""
+
+    topic: str
+    schema_name: str
+    schema: Mapping[str, Any]
+    description: str
+    units: str
+    example: Any
+    stamp: Stamp = Stamp.SIM
+    defaults: Mapping[str, Any] = field(default_factory=dict)
+
+    def schema_bytes(self) -> bytes:
+        """The schema as registered in the MCAP file (UTF-8 JSON)."""
+        return json.dumps(self.schema, indent=1).encode()
+
+
+# ---- schema builders (our own types) ------------------------------------------------------
+def _num(desc: str) -> dict[str, Any]:
+    return {"type": "number", "description": desc}
+
+
+def _int(desc: str, minimum: int | None = None) -> dict[str, Any]:
+    s: dict[str, Any] = {"type": "integer", "description": desc}
+    if minimum is not None:
+        s["minimum"] = minimum
+    return s
+
+
+def _bool(desc: str) -> dict[str, Any]:
+    return {"type": "boolean", "description": desc}
+
+
+def _str(desc: str) -> dict[str, Any]:
+    return {"type": "string", "description": desc}
+
+
+def _vec(n: int, desc: str, item: str = "number") -> dict[str, Any]:
+    return {"type": "array", "items": {"type": item}, "minItems": n, "maxItems": n, "description": desc}
+
+
+def _obj(desc: str, **props: dict[str, Any]) -> dict[str, Any]:
+    return {"type": "object", "description": desc, "properties": props,
+            "required": list(props), "additionalProperties": False}
+
+
+def _free(desc: str) -> dict[str, Any]:
+    # Foxglove needs "properties" even when empty; values still come through
+    return {"type": "object", "description": desc, "properties": {}, "additionalProperties": True}
+
+
+def _message(title: str, desc: str, stamp: Stamp, optional: tuple[str, ...] = (), /, *,
+             open_: bool = False, **props: dict[str, Any]) -> dict[str, Any]:
+    head: dict[str, Any] = {"t_ns": _int("sim time of the event, ns (0 = first IMU sample; boot is negative)")}
+    if stamp is Stamp.TIMING:
+        head["t_host_ns"] = _int("host CLOCK_MONOTONIC when the bench emitted/received it, ns")
+    props = {**head, **props}
+    return {"title": title, "description": desc, "$comment": "mav-hil-bench hil/record/topics.py",
+            "type": "object", "properties": props,
+            "required": [k for k in props if k not in optional], "additionalProperties": open_}
+
+
+def _vendored(name: str) -> dict[str, Any]:
+    return json.loads((SCHEMA_DIR / f"{name}.json").read_text())
+
+
+_EULER = _obj("ZYX Euler angles, degrees", roll=_num("deg"), pitch=_num("deg"), yaw=_num("deg"))
+
+WIRE = _message(
+    "hil.WireChunk", "Raw bytes seen on one port in one direction (one transport read/write).",
+    Stamp.TIMING,
+    port=_str("port name"), direction={"type": "string", "enum": list(WIRE_DIRECTIONS),
+                                       "description": "tx = bench->flight code, rx = flight code->bench"},
+    len=_int("number of bytes", 0),
+    data={"type": "string", "contentEncoding": "base64", "description": "the bytes, base64"})
+
+SIM_TRUTH = _message(
+    "hil.SimTruth", "Plant truth at the end of the tick (world NED, body FRD).", Stamp.SIM,
+    p_N_m=_vec(3, "position, NED, m"), v_N_mps=_vec(3, "velocity, NED, m/s"),
+    q_NB=_vec(4, "attitude quaternion (w, x, y, z), rotates FRD body vectors into NED"),
+    euler_deg=_EULER, omega_B_radps=_vec(3, "body rates, FRD, rad/s"),
+    rotor_omega_radps=_vec(4, "rotor speeds, rad/s, rotor order of the mixer"),
+    thrust_N=_vec(4, "rotor thrusts, N"), h_m=_num("altitude above the field, m (= -p_N[2])"),
+    battery_V=_num("battery terminal voltage, V"), battery_A=_num("battery current, A"),
+    battery_soc=_num("battery state of charge, 0..1"), on_ground=_bool("resting on the ground"),
+    wind_N_mps=_vec(3, "wind velocity, NED, m/s"), mass_kg=_num("vehicle mass incl. payload, kg"))
+
+IMU_SAMPLE = _message(
+    "hil.ImuSample", "One XSENS sample as sent on the wire (device output frame and units).",
+    Stamp.SIM,
+    packet_counter=_int("MTData2 PacketCounter", 0), sample_time_fine=_int("SampleTimeFine, 10 kHz ticks", 0),
+    euler_deg=_EULER, rate_radps=_vec(3, "rate of turn, rad/s, sensor frame"),
+    acc_mps2=_vec(3, "acceleration, m/s^2, sensor frame"))
+
+ADC_CONVERSION = _message(
+    "hil.AdcConversion", "One MCP3204 conversion answered to the flight code.", Stamp.SIM, ("port",),
+    channel=_int("MCP3204 channel 0..3", 0), code=_int("12-bit code 0..4095", 0),
+    volts=_num("input voltage at the ADC pin, V"), port=_str("adc or adc-spidriver"))
+
+RC_PULSES = _message(
+    "hil.RcPulses", "RC receiver channel pulses of the frame delivered at t_ns.", Stamp.SIM,
+    pulse_us=_vec(8, "channel pulse widths, us"), present=_bool("receiver signal present (no failsafe)"))
+
+ESC_COMMAND = _message(
+    "hil.EscCommand", "Maestro targets as received from the flight code.", Stamp.SIM,
+    targets_us=_vec(4, "servo pulse targets, us (Maestro quarter-us resolution)"))
+
+ESC_OUTPUT = _message(
+    "hil.EscOutput", "ESC model state after the command was applied.", Stamp.SIM,
+    throttle=_vec(4, "throttle 0..1"), armed=_vec(4, "ESC armed", "boolean"))
+
+FC_TELEMETRY = _message(
+    "hil.FcTelemetry", "Decoded telemetry frame from the flight code (free-form fields).", Stamp.SIM,
+    open_=True)
+
+TICK_TIMING = _message(
+    "hil.TickTiming", "Per-tick loop timing.", Stamp.TIMING,
+    k=_int("tick index", 0), imu_emit_host_ns=_int("host time the IMU sample was written, ns"),
+    esc_arrival_host_ns=_int("host time the ESC command arrived, ns (0 if missed)"),
+    latency_us=_num("IMU emit -> ESC command arrival, us"), miss=_bool("no command before the deadline"))
+
+EVENT = _message(
+    "hil.Event", "Scenario and fault events.", Stamp.SIM,
+    kind={"type": "string", "enum": ["scenario", "fault", "bench", "flightcode"], "description": "source"},
+    name=_str("event name"), detail=_str("free text"))
+
+_CRITERION = {"type": "object", "description": "one criterion (hil.criteria.CriterionResult)",
+              "properties": {"name": _str("criterion"), "signal": _str("trace signal"),
+                             "metric": _str("metric"), "value": _num("measured value, signal units"),
+                             "bound": _str("the bound, as written in the scenario"),
+                             "passed": _bool("passed"), "detail": _str("free text")},
+              "required": ["name", "passed"], "additionalProperties": False}
+VERDICT = _message(
+    "hil.Verdict", "Scenario criteria results.", Stamp.SIM,
+    passed=_bool("all criteria passed"), criteria={"type": "array", "items": _CRITERION})
+
+DEVICE_COUNTERS = _message(
+    "hil.DeviceCounters", "Periodic snapshot of every device's counters.", Stamp.SIM,
+    devices=_free("device name -> {counter name -> count}"))
+
+# ---- example payloads (docs and tests) ---------------------------------------------------
+_EX_TRUTH = {
+    "p_N_m": [0.1, -0.2, -1.5], "v_N_mps": [0.0, 0.05, -0.1], "q_NB": [0.9990482, 0.0, 0.0, 0.0436194],
+    "euler_deg": {"roll": 0.0, "pitch": 0.0, "yaw": 5.0}, "omega_B_radps": [0.01, -0.02, 0.0],
+    "rotor_omega_radps": [520.0, 521.0, 519.5, 520.5], "thrust_N": [2.45, 2.46, 2.44, 2.45], "h_m": 1.5,
+    "battery_V": 11.9, "battery_A": 14.2, "battery_soc": 0.93, "on_ground": False,
+    "wind_N_mps": [1.0, 0.5, 0.0], "mass_kg": 1.0}
+
+_P = Stamp  # shorter table lines
+# fmt: off
+_TABLE: list[TopicSpec] = [
+    *[TopicSpec(f"/hil/wire/{p}/{d}", "hil.WireChunk", WIRE, f"raw bytes on port {p}, {d}", "bytes; t_host_ns ns",
+                b"\xfa\xff\x36\x00\xcb", _P.TIMING) for p in WIRE_PORTS for d in WIRE_DIRECTIONS],
+    TopicSpec("/sim/truth", "hil.SimTruth", SIM_TRUTH, "plant truth per tick", "SI; NED world, FRD body", _EX_TRUTH),
+    TopicSpec("/tf", "foxglove.FrameTransform", _vendored("foxglove.FrameTransform"),
+              "world (ENU) -> base_link (FLU) from the truth", "m; quaternion (x, y, z, w)",
+              {"parent_frame_id": "world", "child_frame_id": "base_link", "translation": {"x": -0.2, "y": 0.1, "z": 1.5},
+               "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}, _P.FOXGLOVE),
+    TopicSpec("/sim/pose", "foxglove.PoseInFrame", _vendored("foxglove.PoseInFrame"),
+              "truth pose in frame world (ENU/FLU)", "m; quaternion (x, y, z, w)",
+              {"frame_id": "world", "pose": {"position": {"x": -0.2, "y": 0.1, "z": 1.5},
+                                             "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}, _P.FOXGLOVE),
+    TopicSpec("/hil/imu/sample", "hil.ImuSample", IMU_SAMPLE, "XSENS sample as sent", "deg, rad/s, m/s^2; SampleTimeFine 1e-4 s",
+              {"packet_counter": 17, "sample_time_fine": 42500, "euler_deg": {"roll": 0.5, "pitch": -1.0, "yaw": 90.0},
+               "rate_radps": [0.01, 0.0, -0.02], "acc_mps2": [0.1, -0.05, 9.81]}),
+    TopicSpec("/hil/adc/conversion", "hil.AdcConversion", ADC_CONVERSION, "MCP3204 conversion", "code 0..4095; V",
+              {"channel": 0, "code": 2048, "volts": 2.5, "port": "adc"}),
+    TopicSpec("/hil/rc/pulses", "hil.RcPulses", RC_PULSES, "RC pulses delivered", "us",
+              {"pulse_us": [1500, 1500, 1100, 1500, 1900, 1100, 1500, 1500], "present": True}),
+    TopicSpec("/hil/esc/command", "hil.EscCommand", ESC_COMMAND, "Maestro targets received", "us",
+              {"targets_us": [1100.0, 1100.25, 1100.5, 1100.0]}),
+    TopicSpec("/hil/esc/output", "hil.EscOutput", ESC_OUTPUT, "ESC throttles and arming", "0..1",
+              {"throttle": [0.45, 0.46, 0.44, 0.45], "armed": [True, True, True, True]}),
+    TopicSpec("/fc/telemetry", "hil.FcTelemetry", FC_TELEMETRY, "decoded telemetry frames", "as decoded",
+              {"frame": "status", "h_est_m": 1.49, "mode": "ALT_HOLD", "rssi": [-60, -61]}),
+    TopicSpec("/fc/log", "foxglove.Log", _vendored("foxglove.Log"), "flight-code stdout/stderr lines", "level 1..5",
+              {"level": 2, "message": "armed", "name": "flightcode.stdout"}, _P.FOXGLOVE, {"level": 2, "file": "", "line": 0}),
+    TopicSpec("/hil/timing/tick", "hil.TickTiming", TICK_TIMING, "per-tick loop timing", "ns host monotonic; us",
+              {"k": 400, "imu_emit_host_ns": 1_000_000_000, "esc_arrival_host_ns": 1_000_180_000,
+               "latency_us": 180.0, "miss": False}, _P.TIMING),
+    TopicSpec("/hil/events", "hil.Event", EVENT, "scenario and fault events", "-",
+              {"kind": "fault", "name": "imu_dropout", "detail": "0.5 s"}),
+    TopicSpec("/hil/verdict", "hil.Verdict", VERDICT, "criteria results", "signal units",
+              {"passed": True, "criteria": [{"name": "hover_alt", "signal": "truth.h_m", "metric": "max_abs",
+                                              "value": 0.12, "bound": "<= 0.2", "passed": True, "detail": ""}]}),
+    TopicSpec("/hil/device/counters", "hil.DeviceCounters", DEVICE_COUNTERS, "device counters snapshot", "counts",
+              {"devices": {"imu": {"bad_checksum": 0, "messages": 12}, "esc": {"commands": 400}}}),
+]
+# fmt: on
+
+TOPICS: Mapping[str, TopicSpec] = MappingProxyType({s.topic: s for s in _TABLE})
+assert len(TOPICS) == len(_TABLE), "duplicate topic in the table"
+
+
+def topic_spec(topic: str) -> TopicSpec:
+    """The table entry of ``topic``; ``UnknownTopicError`` if there is none."""
+    try:
+        return TOPICS[topic]
+    except KeyError:
+        raise UnknownTopicError(f"topic {topic!r} is not in hil/record/topics.py") from None
+
+
+def wire_topic(port: str, direction: str) -> str:
+    """``/hil/wire/<port>/<tx|rx>``; ``UnknownTopicError`` for an unknown port or direction."""
+    topic = f"/hil/wire/{port}/{direction}"
+    if topic not in TOPICS:
+        raise UnknownTopicError(f"no wire topic for port {port!r} direction {direction!r} "
+                                f"(ports {WIRE_PORTS}, directions {WIRE_DIRECTIONS})")
+    return topic
+
+
+def topics_markdown() -> str:
+    """The topics table of docs/recording.md (wire topics folded into one row)."""
+    rows = ["| topic | schema | content | units / frames |", "|---|---|---|---|",
+            f"| `/hil/wire/<port>/<tx\\|rx>` ({', '.join(WIRE_PORTS)}) | `hil.WireChunk` | "
+            "raw bytes per port and direction (base64 `data`, `len`, `t_host_ns`) | bytes; ns |"]
+    for s in _TABLE:
+        if not s.topic.startswith("/hil/wire/"):
+            rows.append(f"| `{s.topic}` | `{s.schema_name}` | {s.description} | {s.units} |")
+    return "\n".join(rows)

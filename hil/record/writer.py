@@ -1,0 +1,493 @@
+"""One MCAP file per run, written by a background thread fed through a bounded queue.
+
+The tick path only calls ``log``/``log_wire``/``log_truth``: a topic check and a queue put
+(no encoding, no I/O). The writer thread JSON-encodes, stamps and adds messages to an
+``mcap.writer.Writer`` (zstd chunks of at most ``chunk_size`` uncompressed bytes, 64 KiB by
+default: a 1 MiB chunk flush stalls 3-14 ms, research/limits.md section 5).
+
+File life cycle (research/ecosystem.md section 1, "crash behaviour"):
+
+* ``start()`` creates ``<path>.part``, writes the header, the ``run`` metadata and the
+  attachments straight to the OS, so a SIGKILLed run still has them;
+* every finished chunk goes straight to the OS too (an unbuffered sink), so a killed run
+  loses at most the open chunk plus what is still queued; ``hil.record.recover`` salvages it;
+* ``close()`` drains the queue, writes the ``verdict`` (caller's) and ``summary`` (counts)
+  metadata, the summary section and footer, fsyncs and renames ``.part`` -> ``path``.
+
+Times: ``log_time = run_start_unix_ns + t_ns`` (sim time; clamped so it never goes backwards
+on a channel, clamps are counted), ``publish_time = t_host_ns`` (host monotonic), and both
+are written into payloads as the topic table says (``topics.Stamp``).
+
+Nothing is dropped silently: a full queue, an unencodable payload, a write failure or a
+log() after close() are counted per topic; the counts are in the ``summary`` metadata
+record and in ``close()``'s ``RecordStats``.
+"""
+
+from __future__ import annotations
+
+import base64
+import enum
+import json
+import math
+import os
+import queue
+import select
+import threading
+import warnings
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+from mcap.well_known import MessageEncoding, SchemaEncoding
+from mcap.writer import CompressionType, Writer
+
+import hil
+from hil.record import frames
+from hil.record.topics import TOPICS, Stamp, TopicSpec, UnknownTopicError, topic_spec, wire_topic
+from hil.transport.base import WireRecord
+
+_LIBRARY = f"mav-hil-bench/{hil.__version__} mcap-python"
+#: Messages the writer handles before giving the GIL away. Without it a busy writer holds
+#: the GIL for the 5 ms switch interval and the tick thread's wake-ups wait that long.
+_YIELD_EVERY = 8
+_STOP = object()
+
+
+class RecordWriteError(RuntimeError):
+    """The file could not be written (disk full, I/O error); the ``.part`` file is kept."""
+
+
+class _State(enum.Enum):
+    NEW = "new"
+    RUNNING = "running"
+    CLOSED = "closed"
+
+
+# (state, action) -> next state; anything else is a programming error
+_TRANSITIONS: dict[tuple[_State, str], _State] = {
+    (_State.NEW, "start"): _State.RUNNING,
+    (_State.NEW, "close"): _State.CLOSED,
+    (_State.RUNNING, "close"): _State.CLOSED,
+}
+
+
+class _Kind(enum.IntEnum):
+    PLAIN = 0
+    WIRE = 1
+    TRUTH = 2  #: /sim/truth plus the derived /tf and /sim/pose
+
+
+@dataclass(frozen=True)
+class RecordStats:
+    """Result of ``Recorder.close()``. Counts per topic include topics with zero messages."""
+
+    messages_by_topic: dict[str, int]
+    dropped: int
+    path: Path
+    dropped_by_topic: dict[str, int] = field(default_factory=dict)
+    clamped_by_topic: dict[str, int] = field(default_factory=dict)  #: log_time clamped (went backwards)
+    nonfinite_by_topic: dict[str, int] = field(default_factory=dict)  #: messages with NaN/inf written as null
+
+
+class _Route:
+    """Per-topic state: channel id, last log time, sequence and counters."""
+
+    __slots__ = ("spec", "port", "direction", "channel_id", "last_log_time", "seq", "written", "dropped",
+                 "clamped", "nonfinite", "unencodable", "first_error")
+
+    def __init__(self, spec: TopicSpec) -> None:
+        self.spec = spec
+        parts = spec.topic.split("/")  # /hil/wire/<port>/<dir> -> ['', 'hil', 'wire', port, dir]
+        wire = len(parts) == 5 and parts[1:3] == ["hil", "wire"]
+        self.port = parts[3] if wire else ""
+        self.direction = parts[4] if wire else ""
+        self.channel_id = 0
+        self.last_log_time = 0
+        self.seq = 0
+        self.written = 0
+        self.dropped = 0  #: queue full, unencodable, write failure, after close
+        self.clamped = 0
+        self.nonfinite = 0
+        self.unencodable = 0
+        self.first_error = ""
+
+
+class _SinkProxy:
+    """Write-through stream for ``mcap.writer.Writer`` (write/tell/flush over a raw fd): every
+    record it emits (header, metadata, a whole chunk) reaches the OS at once, so a SIGKILL
+    cannot lose it. Not an ``io.RawIOBase``: mcap would wrap that in a BufferedWriter."""
+
+    def __init__(self, fd: int) -> None:
+        self.fd = fd
+        self._pos = 0
+
+    def write(self, data: bytes) -> int:
+        view = memoryview(data)
+        while view:
+            n = os.write(self.fd, view)
+            view = view[n:]
+        self._pos += len(data)
+        return len(data)
+
+    def tell(self) -> int:
+        return self._pos
+
+    def flush(self) -> None:
+        return None
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, (tuple, set, frozenset)):
+        return list(o)
+    raise TypeError(f"{type(o).__name__} is not JSON serialisable")
+
+
+def _sanitise(o: Any) -> tuple[Any, int]:
+    """Replace non-finite floats by None (JSON has no NaN); returns (value, how many)."""
+    if isinstance(o, float):
+        return (o, 0) if math.isfinite(o) else (None, 1)
+    if isinstance(o, dict):
+        n = 0
+        out: dict[str, Any] = {}
+        for k, v in o.items():
+            out[k], m = _sanitise(v)
+            n += m
+        return out, n
+    if isinstance(o, (list, tuple)):
+        items = [_sanitise(v) for v in o]
+        return [v for v, _ in items], sum(m for _, m in items)
+    if isinstance(o, (np.ndarray, np.generic)):
+        return _sanitise(_json_default(o))
+    return o, 0
+
+
+def _encode(payload: Mapping[str, Any]) -> tuple[bytes, int]:
+    try:
+        return json.dumps(payload, separators=(",", ":"), allow_nan=False, default=_json_default).encode(), 0
+    except ValueError:  # NaN or inf somewhere
+        clean, n = _sanitise(payload)
+        return json.dumps(clean, separators=(",", ":"), allow_nan=False, default=_json_default).encode(), n
+
+
+def _str_dict(d: Mapping[str, Any], what: str, *, strict: bool) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for k, v in d.items():
+        if strict and not (isinstance(k, str) and isinstance(v, str)):
+            raise TypeError(f"{what}: keys and values must be str, got {k!r}: {v!r}")
+        out[str(k)] = v if isinstance(v, str) else str(v)
+    return out
+
+
+class Recorder:
+    """Records one run to ``path`` (an ``.mcap`` file; written as ``<path>.part`` until closed).
+
+    ``run_start_unix_ns``: Unix time of sim time 0 (log_time = run_start_unix_ns + t_ns).
+    ``metadata``: str -> str, written as the ``run`` metadata record at ``start()``
+    (rig, scenario, seed, versions, git SHA ...). ``attachments``: (name, media_type, data)
+    written right after it (rig and scenario files). ``chunk_size``: uncompressed bytes per
+    zstd chunk. ``queue_max``: queued messages beyond which ``log()`` drops (and counts).
+    """
+
+    def __init__(self, path: Path, *, run_start_unix_ns: int, metadata: dict[str, str],
+                 attachments: Iterable[tuple[str, str, bytes]] = (), chunk_size: int = 65536,
+                 queue_max: int = 200_000) -> None:
+        if run_start_unix_ns < 0:
+            raise ValueError("run_start_unix_ns must be >= 0")
+        if chunk_size <= 0 or queue_max <= 0:
+            raise ValueError("chunk_size and queue_max must be > 0")
+        self.path = Path(path)
+        self.part_path = self.path.with_name(self.path.name + ".part")
+        self.run_start_unix_ns = int(run_start_unix_ns)
+        self._metadata = _str_dict(metadata, "metadata", strict=True)
+        self._attachments = [(str(n), str(m), bytes(d)) for n, m, d in attachments]
+        self._chunk_size = int(chunk_size)
+        self._queue_max = int(queue_max)
+        self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        self._routes: dict[str, _Route] = {t: _Route(s) for t, s in TOPICS.items()}
+        self._state = _State.NEW
+        self._lock = threading.Lock()  # state changes and the (rare) drop counters
+        self._thread: threading.Thread | None = None
+        self._writer: Writer | None = None
+        self._sink: _SinkProxy | None = None
+        self._fatal: BaseException | None = None
+        self._high_water = 0
+        self._after_close = 0
+        self._stats: RecordStats | None = None
+        self._close_error: RecordWriteError | None = None
+
+    # ---- life cycle ------------------------------------------------------------------------
+    def _transition(self, action: str) -> None:
+        nxt = _TRANSITIONS.get((self._state, action))
+        if nxt is None:
+            raise RuntimeError(f"Recorder: cannot {action} when {self._state.value}")
+        self._state = nxt
+
+    def start(self) -> None:
+        """Create ``<path>.part``; write header, ``run`` metadata and attachments; start the writer thread.
+
+        Refuses (FileExistsError) to overwrite an existing ``path`` or ``.part`` file.
+        """
+        with self._lock:
+            self._transition("start")
+        if self.path.exists():
+            raise FileExistsError(f"{self.path} exists")
+        fd = os.open(self.part_path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        self._sink = _SinkProxy(fd)
+        w = Writer(self._sink, chunk_size=self._chunk_size, compression=CompressionType.ZSTD,  # type: ignore[arg-type]
+                   enable_crcs=True, enable_data_crcs=False)
+        w.start(profile="", library=_LIBRARY)
+        run = dict(self._metadata)
+        run.setdefault("run_start_unix_ns", str(self.run_start_unix_ns))
+        run["record.chunk_size"] = str(self._chunk_size)
+        run["record.queue_max"] = str(self._queue_max)
+        w.add_metadata("run", run)
+        for name, media_type, data in self._attachments:
+            w.add_attachment(self.run_start_unix_ns, self.run_start_unix_ns, name, media_type, data)
+        schema_ids: dict[str, int] = {}
+        for route in self._routes.values():
+            spec = route.spec
+            if spec.schema_name not in schema_ids:
+                schema_ids[spec.schema_name] = w.register_schema(
+                    spec.schema_name, SchemaEncoding.JSONSchema, spec.schema_bytes())
+            route.channel_id = w.register_channel(spec.topic, MessageEncoding.JSON, schema_ids[spec.schema_name],
+                                                  {"description": spec.description, "units": spec.units})
+        self._writer = w
+        self._thread = threading.Thread(target=self._run, name=f"mcap-writer {self.path.name}", daemon=True)
+        self._thread.start()
+
+    def __enter__(self) -> Recorder:
+        if self._state is _State.NEW:
+            self.start()
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        if exc is None:
+            self.close()
+            return
+        try:
+            self.close({"status": "aborted", "error": f"{exc_type.__name__ if exc_type else ''}: {exc}"})
+        except RecordWriteError as err:  # the original exception matters more; keep both visible
+            exc.add_note(f"recording also failed: {err}")
+
+    # ---- the tick path ---------------------------------------------------------------------
+    def log(self, topic: str, t_ns: int, payload: dict[str, Any], t_host_ns: int) -> None:
+        """Queue one message (non-blocking). ``t_ns`` sim time ns, ``t_host_ns`` host monotonic ns.
+
+        ``payload`` follows the topic's schema (without the fields the writer stamps) and must
+        not be mutated afterwards (it is encoded later, in the writer thread).
+        Raises ``UnknownTopicError`` for a topic not in the table.
+        """
+        route = self._routes.get(topic)
+        if route is None:
+            topic_spec(topic)  # raises UnknownTopicError with the message
+        self._put(route, _Kind.PLAIN, t_ns, t_host_ns, payload)  # type: ignore[arg-type]
+
+    def log_wire(self, port: str, direction: str, t_ns: int, t_host_ns: int, data: bytes) -> None:
+        """Queue raw bytes of ``port`` (``direction`` "tx" bench->client or "rx") for ``/hil/wire/<port>/<dir>``."""
+        route = self._routes.get(f"/hil/wire/{port}/{direction}")
+        if route is None:
+            wire_topic(port, direction)  # raises UnknownTopicError
+        self._put(route, _Kind.WIRE, t_ns, t_host_ns, bytes(data))  # type: ignore[arg-type]
+
+    def log_truth(self, t_ns: int, truth: dict[str, Any], t_host_ns: int) -> None:
+        """Queue a ``/sim/truth`` payload; the writer also derives ``/tf`` and ``/sim/pose`` (ENU/FLU)."""
+        self._put(self._routes["/sim/truth"], _Kind.TRUTH, t_ns, t_host_ns, truth)
+
+    def tap(self, record: WireRecord) -> None:
+        """A ``Port.tap`` callback: records a transport's ``WireRecord``."""
+        self.log_wire(record.port, record.direction.value, record.t_ns, record.t_host_ns, record.data)
+
+    def _put(self, route: _Route, kind: _Kind, t_ns: int, t_host_ns: int, payload: Any) -> None:
+        if self._state is not _State.RUNNING:
+            self._not_running(route)
+        elif self._queue.qsize() >= self._queue_max:
+            with self._lock:
+                route.dropped += 1
+        else:
+            self._queue.put((route, kind, t_ns, t_host_ns, payload))
+
+    def _not_running(self, route: _Route) -> None:
+        if self._state is _State.NEW:
+            raise RuntimeError("Recorder.log() before start()")
+        with self._lock:
+            self._after_close += 1
+        if self._after_close == 1:
+            warnings.warn(f"Recorder: message on {route.spec.topic} after close() was dropped "
+                          "(further ones are counted silently in Recorder.dropped_after_close)",
+                          RuntimeWarning, stacklevel=4)
+
+    @property
+    def dropped_after_close(self) -> int:
+        """Messages logged after ``close()`` (not in the file, not in its summary)."""
+        return self._after_close
+
+    def pending(self) -> int:
+        """Messages queued and not yet written."""
+        return self._queue.qsize()
+
+    # ---- writer thread ---------------------------------------------------------------------
+    def _run(self) -> None:
+        q = self._queue
+        burst = 0
+        while True:
+            try:
+                item = q.get_nowait()
+            except queue.Empty:
+                burst = 0
+                item = q.get()
+            if item is _STOP:
+                return
+            depth = q.qsize() + 1
+            if depth > self._high_water:
+                self._high_water = depth
+            self._handle(item)
+            burst += 1
+            if burst >= _YIELD_EVERY:
+                burst = 0
+                select.select([], [], [], 0)  # release the GIL so the tick thread can run
+
+    def _handle(self, item: tuple[_Route, _Kind, int, int, Any]) -> None:
+        route, kind, t_ns, t_host_ns, payload = item
+        if self._fatal is not None:
+            route.dropped += 1
+            return
+        try:
+            if kind is _Kind.WIRE:
+                msg = {"t_ns": int(t_ns), "t_host_ns": int(t_host_ns), "port": route.port,
+                       "direction": route.direction, "len": len(payload),
+                       "data": base64.b64encode(payload).decode("ascii")}
+                self._emit(route, t_ns, t_host_ns, msg, complete=False)
+            else:
+                self._emit(route, t_ns, t_host_ns, payload, complete=True)
+                if kind is _Kind.TRUTH:
+                    self._emit(self._routes["/tf"], t_ns, t_host_ns, frames.truth_to_tf(payload), complete=True)
+                    self._emit(self._routes["/sim/pose"], t_ns, t_host_ns, frames.truth_to_pose(payload),
+                               complete=True)
+        except OSError as e:  # the file is broken: count everything from here on
+            self._fatal = e
+            route.dropped += 1
+
+    def _emit(self, route: _Route, t_ns: int, t_host_ns: int, payload: Mapping[str, Any], *,
+              complete: bool) -> None:
+        spec = route.spec
+        log_time = self.run_start_unix_ns + int(t_ns)
+        if log_time < route.last_log_time:
+            route.clamped += 1
+            log_time = route.last_log_time
+        if log_time < 0:
+            route.clamped += 1
+            log_time = 0
+        route.last_log_time = log_time
+        if complete:
+            try:
+                if spec.stamp is Stamp.FOXGLOVE:
+                    msg = dict(spec.defaults)
+                    msg.update(payload)
+                    msg["timestamp"] = {"sec": log_time // 1_000_000_000, "nsec": log_time % 1_000_000_000}
+                else:
+                    msg = dict(payload)
+                    msg["t_ns"] = int(t_ns)
+                    if spec.stamp is Stamp.TIMING:
+                        msg["t_host_ns"] = int(t_host_ns)
+                data, nonfinite = _encode(msg)
+            except (TypeError, ValueError, AttributeError) as e:  # a payload that is not a JSON object
+                route.unencodable += 1
+                route.dropped += 1
+                if not route.first_error:
+                    route.first_error = f"{type(e).__name__}: {e}"
+                return
+        else:
+            data, nonfinite = _encode(payload)
+        if nonfinite:
+            route.nonfinite += 1
+        assert self._writer is not None
+        self._writer.add_message(route.channel_id, log_time, data, max(0, int(t_host_ns)), route.seq & 0xFFFFFFFF)
+        route.seq += 1
+        route.written += 1
+
+    # ---- closing ---------------------------------------------------------------------------
+    def _summary(self) -> dict[str, str]:
+        s: dict[str, str] = {
+            "messages_total": str(sum(r.written for r in self._routes.values())),
+            "dropped_total": str(sum(r.dropped for r in self._routes.values())),
+            "queue_high_water": str(self._high_water),
+            "queue_max": str(self._queue_max),
+            "chunk_size": str(self._chunk_size),
+        }
+        for t, r in self._routes.items():
+            s[f"messages.{t}"] = str(r.written)
+            for key, n in (("dropped", r.dropped), ("clamped_log_time", r.clamped),
+                           ("nonfinite", r.nonfinite), ("unencodable", r.unencodable)):
+                if n:
+                    s[f"{key}.{t}"] = str(n)
+            if r.first_error:
+                s[f"error.{t}"] = r.first_error
+        if self._fatal is not None:
+            s["writer_error"] = f"{type(self._fatal).__name__}: {self._fatal}"
+        return s
+
+    def close(self, final_metadata: dict[str, str] | None = None) -> RecordStats:
+        """Drain the queue, write ``verdict`` (``final_metadata``) and ``summary`` metadata,
+        finish the file and rename ``.part`` -> ``path``. Idempotent; safe on error paths.
+
+        Raises ``RecordWriteError`` (every call) if the file could not be written; the
+        ``.part`` file is then left for ``hil recover``.
+        """
+        with self._lock:
+            if self._state is _State.CLOSED:
+                if self._close_error is not None:
+                    raise self._close_error
+                assert self._stats is not None
+                return self._stats
+            was_running = self._state is _State.RUNNING
+            self._transition("close")
+        if not was_running:
+            self._stats = RecordStats({}, 0, self.path)
+            return self._stats
+        assert self._thread is not None and self._writer is not None and self._sink is not None
+        self._queue.put(_STOP)
+        self._thread.join()
+        while True:  # producers that raced with close(): count, never lose silently
+            try:
+                item = self._queue.get_nowait()
+            except queue.Empty:
+                break
+            if item is not _STOP:
+                item[0].dropped += 1
+        error: BaseException | None = self._fatal
+        try:
+            if error is None:
+                if final_metadata is not None:
+                    self._writer.add_metadata("verdict", _str_dict(final_metadata, "final_metadata", strict=False))
+                self._writer.add_metadata("summary", self._summary())
+                self._writer.finish()
+                os.fsync(self._sink.fd)
+        except OSError as e:
+            error = e
+        finally:
+            os.close(self._sink.fd)
+        if error is None:
+            os.replace(self.part_path, self.path)
+        routes = self._routes.values()
+        self._stats = RecordStats(
+            messages_by_topic={r.spec.topic: r.written for r in routes},
+            dropped=sum(r.dropped for r in routes),
+            path=self.path if error is None else self.part_path,
+            dropped_by_topic={r.spec.topic: r.dropped for r in routes if r.dropped},
+            clamped_by_topic={r.spec.topic: r.clamped for r in routes if r.clamped},
+            nonfinite_by_topic={r.spec.topic: r.nonfinite for r in routes if r.nonfinite})
+        if error is not None:
+            self._close_error = RecordWriteError(f"recording {self.part_path} failed: {error}")
+            raise self._close_error from error
+        return self._stats
+
+
+__all__ = ["RecordStats", "RecordWriteError", "Recorder", "UnknownTopicError"]
