@@ -11,7 +11,9 @@ CRC-8: polynomial 0x07, init 0x00, no reflection, no final xor, over bytes 1..4.
 
 Captures are lost (and the next record flagged) when an edge follows the previous
 capture closer than the interrupt latency, or when the record FIFO in front of the UART
-is full. Records leave the UART back to back at the configured line rate.
+is full: the FIFO is modelled by a virtual UART that sends records back to back at the
+configured line rate. The bytes themselves are released at the edge time (a pty has no
+line rate; the bench wants every record due by a tick delivered with that tick).
 """
 
 from __future__ import annotations
@@ -107,8 +109,8 @@ class CaptureFrontEnd(ByteDevice):
     """The capture MCU as a byte device on the ``rc`` port.
 
     The bench feeds PPM edges (:meth:`feed_edges`, in time order, possibly ahead of sim
-    time) and calls :meth:`advance`; a record becomes output when its UART transmission
-    starts, i.e. at the edge time unless earlier records are still being sent.
+    time) and calls :meth:`advance`; a record becomes output once sim time reaches its
+    edge.
     """
 
     name = "rc"
@@ -122,8 +124,10 @@ class CaptureFrontEnd(ByteDevice):
         self._last_capture_ns: int | None = None
         self._last_edge_ns = -1
         self._uart_free_ns = 0
-        #: Scheduled (tx_start_ns, record bytes), not yet released.
+        #: Records not yet released: (edge t_ns, bytes).
         self._scheduled: deque[tuple[int, bytes]] = deque()
+        #: Virtual UART start times of recent records, to know the FIFO occupancy.
+        self._uart_starts: deque[int] = deque()
 
     def timer_us(self, t_ns: int) -> int:
         """The 16-bit 1 MHz timer value at sim time ``t_ns``."""
@@ -142,8 +146,9 @@ class CaptureFrontEnd(ByteDevice):
                     and edge.t_ns - self._last_capture_ns < p.min_capture_interval_us * NS_PER_US):
                 self._lose(edge.t_ns, "latency")
                 continue
-            queued = sum(1 for start, _ in self._scheduled if start > edge.t_ns)
-            if queued >= p.fifo_records:
+            while self._uart_starts and self._uart_starts[0] <= edge.t_ns:
+                self._uart_starts.popleft()  # already shifted out of the FIFO
+            if len(self._uart_starts) >= p.fifo_records:
                 self._lose(edge.t_ns, "fifo_full")
                 continue
             self._last_capture_ns = edge.t_ns
@@ -152,7 +157,9 @@ class CaptureFrontEnd(ByteDevice):
             self._overrun = False
             start = max(edge.t_ns, self._uart_free_ns)
             self._uart_free_ns = start + self._record_ns
-            self._scheduled.append((start, pack_record(rec)))
+            if start > edge.t_ns:
+                self._uart_starts.append(start)
+            self._scheduled.append((edge.t_ns, pack_record(rec)))
 
     def _lose(self, t_ns: int, reason: str) -> None:
         self._overrun = True
@@ -160,7 +167,7 @@ class CaptureFrontEnd(ByteDevice):
         self._event(CaptureLost(t_ns, reason))
 
     def advance(self, t_ns: int) -> None:
-        """Release the records whose transmission has started by ``t_ns``."""
+        """Release the records of edges up to ``t_ns``."""
         while self._scheduled and self._scheduled[0][0] <= t_ns:
             _, data = self._scheduled.popleft()
             self._send(data)
