@@ -1,0 +1,169 @@
+"""ADC codes -> physical units: the barometer and accelerometer analog chains.
+
+Chain (every constant comes from the config; defaults are the paper's vehicle and the
+interim chain of the ADC notes, to be aligned with docs/analog-chain.md):
+
+* MCP3204: ``code = floor(4096 v / vref_V)``; the inverse uses the bin centre,
+  ``v = (code + 0.5) vref_V / 4096`` (unbiased for a uniformly distributed input).
+* MPX5100AP (protocols.md 3): ``v_sensor = supply_V (k_per_kPa P_kPa - offset_ratio)`` with
+  k_per_kPa = 0.009, offset_ratio = 0.095, supply_V = 5 V; then the offset-and-gain stage
+  ``v_adc = gain (v_sensor - offset_V) + ref_V`` (gain 16: 27.1 Pa / 16 = 1.7 Pa, i.e.
+  0.14 m per code near sea level, paper.md 3.4). Default offset_V = 3.9 V puts
+  97.2..104.2 kPa into 0..5 V: sea-level fields in any weather.
+* Altitude: ISA troposphere (U.S. Standard Atmosphere 1976 layer 0),
+  ``h(P) = T0/L (1 - (P/101325)^(R L / g0 M))``, relative to the pressure averaged at boot:
+  ``z = h(P) - h(P_boot)`` (m, positive up).
+* ADXL335 (protocols.md 4), ratiometric: ``v = supply_V (zero_g_ratio + sens_ratio_per_g a_g)``
+  per axis with supply 3.3 V, zero_g_ratio 0.5, sens_ratio_per_g 0.1 (330 mV/g); a_g is the
+  specific force along the sensor axis in g. ``mount_B`` maps sensor axes to body FRD axes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+RESOLUTION_CODES = 4096
+G0_MPS2 = 9.80665
+ISA_P0_PA = 101_325.0
+#: T0 / L = 288.15 K / 0.0065 K/m.
+ISA_H_SCALE_M = 44_330.769
+#: R* L / (g0 M) = 8.3144598 * 0.0065 / (9.80665 * 0.0289644).
+ISA_EXPONENT = 0.190_263
+_AXES = {"X": 0, "Y": 1, "Z": 2}
+
+
+@dataclass(frozen=True)
+class BaroChainParams:
+    """``[adc.baro]``: MPX5100AP plus its offset-and-gain conditioning stage.
+
+    Fields:
+        supply_V: sensor supply Vs, V.
+        k_per_kPa: transfer slope ratio, 1/kPa (datasheet 0.009).
+        offset_ratio: transfer offset ratio (datasheet 0.095).
+        gain: conditioning gain, V/V (1 = no stage).
+        offset_V: sensor voltage subtracted before the gain, V.
+        ref_V: voltage added after the gain, V.
+        zero_average_s: sensor time averaged at boot for the altitude reference, s.
+    """
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    supply_V: float = 5.0
+    k_per_kPa: float = 0.009
+    offset_ratio: float = 0.095
+    gain: float = 16.0
+    offset_V: float = 3.9
+    ref_V: float = 0.0
+    zero_average_s: float = 1.0
+
+
+@dataclass(frozen=True)
+class AccelChainParams:
+    """``[adc.accel]``: ADXL335, ratiometric, and how it is mounted.
+
+    Fields:
+        supply_V: sensor supply Vs, V (<= 3.6 V for the ADXL335).
+        zero_g_ratio: zero-g output as a fraction of Vs (0.5).
+        sens_ratio_per_g: sensitivity as a fraction of Vs per g (0.1 -> 330 mV/g at 3.3 V).
+        mount_B: for body axes x (forward), y (right), z (down): which sensor axis, with sign,
+            measures it, e.g. ("+X", "-Y", "-Z") for a sensor with Y left and Z up. Default:
+            sensor axes aligned with FRD.
+    """
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    supply_V: float = 3.3
+    zero_g_ratio: float = 0.5
+    sens_ratio_per_g: float = 0.1
+    mount_B: tuple[str, str, str] = ("+X", "+Y", "+Z")
+
+
+def parse_mount(mount_B: tuple[str, str, str]) -> tuple[tuple[int, float], ...]:
+    """("+X", "-Y", "-Z") -> ((0, 1.0), (1, -1.0), (2, -1.0)); ValueError if not a signed permutation."""
+    out = []
+    for entry in mount_B:
+        if len(entry) != 2 or entry[0] not in "+-" or entry[1].upper() not in _AXES:
+            raise ValueError(f"mount entry {entry!r}: expected a sign and an axis, like '+X' or '-Z'")
+        out.append((_AXES[entry[1].upper()], 1.0 if entry[0] == "+" else -1.0))
+    if sorted(axis for axis, _ in out) != [0, 1, 2]:
+        raise ValueError(f"mount {list(mount_B)} must use each sensor axis X, Y, Z once")
+    return tuple(out)
+
+
+def isa_altitude_m(p_Pa: float) -> float:
+    """ISA pressure altitude above the 101325 Pa level, m (troposphere)."""
+    return ISA_H_SCALE_M * (1.0 - (p_Pa / ISA_P0_PA) ** ISA_EXPONENT)
+
+
+class AnalogChain:
+    """Converts MCP3204 codes of the baro and accelerometer channels to physical units.
+
+    Args:
+        vref_V: MCP3204 reference voltage, V.
+        baro, accel: the two chains.
+    """
+
+    def __init__(self, vref_V: float, baro: BaroChainParams, accel: AccelChainParams) -> None:
+        self.vref_V = vref_V
+        self.baro = baro
+        self.accel = accel
+        self._v_per_code = vref_V / RESOLUTION_CODES
+        self._mount = parse_mount(accel.mount_B)
+        self._acc_zero_V = accel.supply_V * accel.zero_g_ratio
+        self._acc_mps2_per_V = G0_MPS2 / (accel.supply_V * accel.sens_ratio_per_g)
+
+    def volts(self, code: int) -> float:
+        """ADC input voltage at the centre of ``code``'s bin, V."""
+        return (code + 0.5) * self._v_per_code
+
+    def baro_pressure_Pa(self, code: int) -> float | None:
+        """Absolute pressure, Pa; None if the code sits at either rail (out of range)."""
+        if code <= 0 or code >= RESOLUTION_CODES - 1:
+            return None
+        b = self.baro
+        v_sensor = (self.volts(code) - b.ref_V) / b.gain + b.offset_V
+        return (v_sensor / b.supply_V + b.offset_ratio) / b.k_per_kPa * 1000.0
+
+    def accel_B_mps2(self, code_x: int, code_y: int, code_z: int) -> tuple[float, float, float]:
+        """Specific force in body FRD, m/s^2 (about (0, 0, -9.81) level at rest)."""
+        s = ((self.volts(code_x) - self._acc_zero_V) * self._acc_mps2_per_V,
+             (self.volts(code_y) - self._acc_zero_V) * self._acc_mps2_per_V,
+             (self.volts(code_z) - self._acc_zero_V) * self._acc_mps2_per_V)
+        (ix, sx), (iy, sy), (iz, sz) = self._mount
+        return (sx * s[ix], sy * s[iy], sz * s[iz])
+
+
+class BaroReference:
+    """Averages the pressure over the first ``average_ns`` of sensor time; then gives altitude.
+
+    ``add(p_Pa, t_ns)`` until :attr:`ready`; :meth:`altitude_m` is relative to that mean.
+    """
+
+    def __init__(self, average_ns: int) -> None:
+        self.average_ns = average_ns
+        self._t_first_ns: int | None = None
+        self._sum = 0.0
+        self._n = 0
+        self.p_ref_Pa: float | None = None
+        self._h_ref_m = 0.0
+
+    @property
+    def ready(self) -> bool:
+        return self.p_ref_Pa is not None
+
+    def add(self, p_Pa: float, t_ns: int) -> bool:
+        """Accumulate one reading; returns True once the reference is fixed."""
+        if self.p_ref_Pa is not None:
+            return True
+        if self._t_first_ns is None:
+            self._t_first_ns = t_ns
+        self._sum += p_Pa
+        self._n += 1
+        if t_ns - self._t_first_ns >= self.average_ns:
+            self.p_ref_Pa = self._sum / self._n
+            self._h_ref_m = isa_altitude_m(self.p_ref_Pa)
+        return self.p_ref_Pa is not None
+
+    def altitude_m(self, p_Pa: float) -> float:
+        """Height above the boot reference, m (positive up)."""
+        return isa_altitude_m(p_Pa) - self._h_ref_m
