@@ -152,6 +152,12 @@ class Mcp3204:
             out.append(value)
         return bytes(out)
 
+    def set_sck(self, level: int, t_ns: int) -> None:
+        """Drive SCK to ``level``: masters call this when their clock idle level (CPOL)
+        changes, before lowering CS, so the part sees no stray edge in the frame."""
+        if (level & 1) != self._sck:
+            self._edge(t_ns)
+
     # -- pin view ----------------------------------------------------------------------
     def set_pins(self, t_ns: int, cs: int, sck: int, din: int) -> int | None:
         """Drive CS, SCK and DIN to these levels; return DOUT (None = hi-Z).
@@ -194,7 +200,7 @@ class Mcp3204:
         if not self._cs_low:
             return
         if self._phase is Phase.POWER_UP_CS_LOW:
-            self.counters["clocks_before_cs_raised"] += 1
+            self.counters["clocks_before_cs_raised"] += self._sck  # count rising edges
             if not self._frame_flagged:
                 self._frame_flagged = True
                 self._error(t_ns, "clocked after power-up with CS low; CS must go high first")
