@@ -1,0 +1,143 @@
+"""Mixer: layout signs (shared convention), golden throttles, saturation priority, applied torque."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flightcode.control.mixer import Frame, Mixer, MixResult
+
+F_MAX = 5.15
+ARM = 0.25
+L = ARM / math.sqrt(2.0)
+C = 0.016
+
+# Independent geometry (the shared flight-code convention, FRD): (x, y, spin: +1 CCW).
+X_LAYOUT = ((L, L, 1), (-L, -L, 1), (L, -L, -1), (-L, L, -1))
+PLUS_LAYOUT = ((0.0, ARM, 1), (0.0, -ARM, 1), (ARM, 0.0, -1), (-ARM, 0.0, -1))
+
+
+def _torque(layout, throttle) -> tuple[float, float, float, float]:
+    """(sum F, tau_x, tau_y, tau_z) from throttles: thrust along -z_B at (x, y)."""
+    f = [F_MAX * d * d for d in throttle]
+    return (
+        sum(f),
+        sum(-y * fi for (x, y, s), fi in zip(layout, f)),
+        sum(x * fi for (x, y, s), fi in zip(layout, f)),
+        sum(C * s * fi for (x, y, s), fi in zip(layout, f)),
+    )
+
+
+def test_pure_collective() -> None:
+    r = Mixer().mix(0.724, (0.0, 0.0, 0.0))
+    assert isinstance(r, MixResult)
+    assert r.throttle == pytest.approx((0.724,) * 4, abs=1e-15)
+    assert r.applied_tau_Nm == (0.0, 0.0, 0.0) and not r.saturated
+    assert r.applied_collective_throttle == pytest.approx(0.724, abs=1e-15)
+
+
+def test_golden_roll_x_frame() -> None:
+    # Hover F = 5.15 x 0.724^2 = 2.699506 N per motor, roll 0.1 N m -> +-0.1/(4 l) = 0.141421 N:
+    # the left motors (1 rear-left, 2 front-left) speed up so the right wing goes down.
+    r = Mixer().mix(0.724, (0.1, 0.0, 0.0))
+    assert r.throttle == pytest.approx((0.704780, 0.742722, 0.742722, 0.704780), abs=1e-6)
+    assert r.applied_tau_Nm == pytest.approx((0.1, 0.0, 0.0), abs=1e-12)
+    assert not r.saturated
+
+
+def test_signs_follow_the_layout_x() -> None:
+    m = Mixer("x")
+    pitch = m.mix(0.6, (0.0, 0.1, 0.0)).throttle  # nose up: front motors 0, 2 faster
+    assert pitch[0] == pitch[2] > 0.6 > pitch[1] == pitch[3]
+    yaw = m.mix(0.6, (0.0, 0.0, 0.05)).throttle  # nose right: CCW motors 0, 1 faster
+    assert yaw[0] == yaw[1] > 0.6 > yaw[2] == yaw[3]
+    # Exact differential thrust: tau_z / (4 kQ/kT) per motor.
+    assert F_MAX * yaw[0] ** 2 - F_MAX * 0.36 == pytest.approx(0.05 / (4 * C), rel=1e-12)
+
+
+def test_signs_follow_the_layout_plus() -> None:
+    m = Mixer("plus")
+    assert m.frame is Frame.PLUS and Mixer("+").frame is Frame.PLUS
+    roll = m.mix(0.6, (0.1, 0.0, 0.0)).throttle  # right wing down: left motor 1 up, right 0 down
+    assert roll[1] > 0.6 > roll[0] and roll[2] == roll[3] == pytest.approx(0.6)
+    assert F_MAX * roll[1] ** 2 - F_MAX * 0.36 == pytest.approx(0.1 / (2 * ARM), rel=1e-12)
+    pitch = m.mix(0.6, (0.0, 0.1, 0.0)).throttle  # nose up: front motor 2 up, back 3 down
+    assert pitch[2] > 0.6 > pitch[3] and pitch[0] == pitch[1] == pytest.approx(0.6)
+    r = m.mix(0.6, (0.05, -0.04, 0.02))
+    assert r.applied_tau_Nm == pytest.approx((0.05, -0.04, 0.02), abs=1e-12)
+    assert _torque(PLUS_LAYOUT, r.throttle)[1:] == pytest.approx((0.05, -0.04, 0.02), abs=1e-12)
+
+
+def test_yaw_is_reduced_first_at_the_requested_collective() -> None:
+    r = Mixer().mix(0.724, (0.1, -0.05, 0.5))
+    assert r.saturated
+    assert r.applied_tau_Nm[:2] == pytest.approx((0.1, -0.05), abs=1e-12)
+    assert 0.0 < r.applied_tau_Nm[2] < 0.5
+    assert r.applied_collective_throttle == pytest.approx(0.724, abs=1e-12)
+    assert max(r.throttle) == pytest.approx(1.0) or min(r.throttle) == pytest.approx(0.0)
+
+
+def test_collective_shifts_when_roll_does_not_fit() -> None:
+    # Near full throttle the +0.8485 N per motor of a 0.6 N m roll does not fit: the collective
+    # drops by exactly the overflow, roll is kept, yaw has no room left on motor 1.
+    r = Mixer().mix(0.98, (0.6, 0.0, 0.05))
+    assert r.saturated
+    assert r.applied_tau_Nm == pytest.approx((0.6, 0.0, 0.0), abs=1e-9)
+    f_c = F_MAX - 0.6 / (4 * L)
+    assert r.applied_collective_throttle == pytest.approx(math.sqrt(f_c / F_MAX), abs=1e-12)
+    assert r.throttle[1] == r.throttle[2] == pytest.approx(1.0)
+
+
+def test_roll_pitch_scaled_when_their_spread_exceeds_the_range() -> None:
+    r = Mixer().mix(0.5, (2.0, 2.0, 0.1))
+    alpha = F_MAX / (2 * 2 * 2.0 / (4 * L))
+    assert r.saturated
+    assert r.applied_tau_Nm[0] == pytest.approx(2.0 * alpha, rel=1e-9)
+    assert r.applied_tau_Nm[1] == pytest.approx(2.0 * alpha, rel=1e-9)
+    assert r.throttle[2] == pytest.approx(1.0) and r.throttle[3] == pytest.approx(0.0)
+
+
+def test_non_finite_inputs_are_zeroed_and_counted() -> None:
+    m = Mixer()
+    r = m.mix(0.5, (math.nan, 0.0, 0.0))
+    assert r.throttle == pytest.approx((0.5,) * 4)
+    assert m.mix(math.inf, (0.0, 0.0, 0.0)).throttle == (0.0,) * 4
+    assert m.counters["nonfinite_torque"] == 1 and m.counters["nonfinite_collective"] == 1
+
+
+def test_bad_frame_is_rejected() -> None:
+    with pytest.raises(ValueError):
+        Mixer("h")
+
+
+@settings(deadline=None, max_examples=300)
+@given(
+    st.sampled_from(["x", "plus"]),
+    st.floats(-0.2, 1.2),
+    st.floats(-3.0, 3.0),
+    st.floats(-3.0, 3.0),
+    st.floats(-0.5, 0.5),
+)
+def test_mix_properties(frame: str, d_c: float, tx: float, ty: float, tz: float) -> None:
+    m = Mixer(frame)
+    layout = X_LAYOUT if frame == "x" else PLUS_LAYOUT
+    r = m.mix(d_c, (tx, ty, tz))
+    assert all(0.0 <= d <= 1.0 for d in r.throttle)
+    total, *applied = _torque(layout, r.throttle)
+    assert r.applied_tau_Nm == pytest.approx(tuple(applied), abs=1e-9)
+    assert r.applied_collective_throttle == pytest.approx(math.sqrt(total / (4 * F_MAX)), abs=1e-9)
+    ax, ay, az = r.applied_tau_Nm
+    if not r.saturated:
+        assert (ax, ay, az) == pytest.approx((tx, ty, tz), abs=1e-9)
+        assert r.applied_collective_throttle == pytest.approx(min(max(d_c, 0.0), 1.0), abs=1e-9)
+    # Roll/pitch keep their direction; they are kept whole whenever they can fit at all.
+    assert ax * ty == pytest.approx(ay * tx, abs=1e-9)
+    assert ax * tx >= -1e-12 and ay * ty >= -1e-12
+    f_rp = [(-y * tx / sum(q[1] ** 2 for q in layout)) + (x * ty / sum(q[0] ** 2 for q in layout)) for x, y, _ in layout]
+    if max(f_rp) - min(f_rp) <= F_MAX * (1 - 1e-9):
+        assert (ax, ay) == pytest.approx((tx, ty), abs=1e-9)
+    # Yaw is only ever reduced, never reversed or amplified.
+    assert az * tz >= -1e-12 and abs(az) <= abs(tz) + 1e-9
