@@ -465,6 +465,7 @@ class Recorder:
         error: BaseException | None = self._fatal
         try:
             if error is None:
+                self._writer.flush()  # close the open chunk so verdict/summary come after every message
                 if final_metadata is not None:
                     self._writer.add_metadata("verdict", _str_dict(final_metadata, "final_metadata", strict=False))
                 self._writer.add_metadata("summary", self._summary())
