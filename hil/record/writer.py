@@ -41,6 +41,8 @@ from types import TracebackType
 from typing import Any
 
 import numpy as np
+from mcap.data_stream import RecordBuilder
+from mcap.records import Channel, Schema
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
 
@@ -54,6 +56,13 @@ _LIBRARY = f"mav-hil-bench/{hil.__version__} mcap-python"
 #: the GIL for the 5 ms switch interval and the tick thread's wake-ups wait that long.
 _YIELD_EVERY = 8
 _STOP = object()
+_MESSAGE_OVERHEAD = 31  # opcode 1 + length 8 + channel id 2 + sequence 4 + log time 8 + publish time 8
+
+
+def _record_size(record: Schema | Channel) -> int:
+    builder = RecordBuilder()
+    record.write(builder)
+    return builder.count
 
 
 class RecordWriteError(RuntimeError):
@@ -220,6 +229,8 @@ class Recorder:
         self._high_water = 0
         self._after_close = 0
         self._stats: RecordStats | None = None
+        self._chunk_bytes = 0  # uncompressed bytes in the open chunk (we close it before chunk_size)
+        self._chunk_messages = 0
         self._close_error: RecordWriteError | None = None
 
     # ---- life cycle ------------------------------------------------------------------------
@@ -254,10 +265,16 @@ class Recorder:
         for route in self._routes.values():
             spec = route.spec
             if spec.schema_name not in schema_ids:
-                schema_ids[spec.schema_name] = w.register_schema(
-                    spec.schema_name, SchemaEncoding.JSONSchema, spec.schema_bytes())
-            route.channel_id = w.register_channel(spec.topic, MessageEncoding.JSON, schema_ids[spec.schema_name],
-                                                  {"description": spec.description, "units": spec.units})
+                data = spec.schema_bytes()
+                sid = schema_ids[spec.schema_name] = w.register_schema(
+                    spec.schema_name, SchemaEncoding.JSONSchema, data)
+                self._chunk_bytes += _record_size(
+                    Schema(id=sid, name=spec.schema_name, encoding=SchemaEncoding.JSONSchema, data=data))
+            meta = {"description": spec.description, "units": spec.units}
+            route.channel_id = w.register_channel(spec.topic, MessageEncoding.JSON, schema_ids[spec.schema_name], meta)
+            self._chunk_bytes += _record_size(Channel(
+                id=route.channel_id, topic=spec.topic, message_encoding=MessageEncoding.JSON,
+                schema_id=schema_ids[spec.schema_name], metadata=meta))
         self._writer = w
         self._thread = threading.Thread(target=self._run, name=f"mcap-writer {self.path.name}", daemon=True)
         self._thread.start()
@@ -409,7 +426,13 @@ class Recorder:
         if nonfinite:
             route.nonfinite += 1
         assert self._writer is not None
+        size = _MESSAGE_OVERHEAD + len(data)
+        if self._chunk_messages and self._chunk_bytes + size > self._chunk_size:
+            self._writer.flush()  # finish the chunk before it would pass chunk_size (mcap closes it after)
+            self._chunk_bytes = self._chunk_messages = 0
         self._writer.add_message(route.channel_id, log_time, data, max(0, int(t_host_ns)), route.seq & 0xFFFFFFFF)
+        self._chunk_bytes += size
+        self._chunk_messages += 1
         route.seq += 1
         route.written += 1
 
