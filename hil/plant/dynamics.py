@@ -1,0 +1,189 @@
+"""The 17-state equations of motion and the fixed-step RK4, on plain floats.
+
+Why it looks like this: numpy on a state this small is ~20x slower than scalar code
+(research/limits.md section 4), so the derivative is hand-unrolled with every constant bound
+as a closure variable (cheap to load), and ``rk4`` works on lists.
+
+State ``x`` (list of 17 floats)::
+
+    0-2   p_N      CG position, NED (m)
+    3-5   v_N      CG velocity, NED (m/s)
+    6-9   q_NB     attitude (w, x, y, z), body FRD -> NED
+    10-12 w_B      body rates (rad/s)
+    13-16 omega_i  rotor speeds (rad/s), i = rotor index
+
+Inputs ``u`` (tuple of 8 floats), held over a step: four rotor speed commands (rad/s), the
+wind (NED, m/s) and the air density ratio sigma (ISA sea level = 1).
+
+Forces and moments (all at/about the CG):
+
+* rotor i: thrust ``T_i = k_T f_i sigma g_e omega_i^2`` along -z_B at its hub; drag torque
+  ``s_i k_Q f_i sigma omega_i^2`` and motor reaction ``s_i J_r d omega_i/dt`` about z_B
+  (``s_i = +1`` counter-clockwise from above); rotor angular momentum
+  ``-s_i J_r omega_i e_z`` enters the gyroscopic term.
+* drag on the air-relative velocity in body axes: linear + quadratic per axis, plus rotor
+  drag ``c sum(omega)`` on x and y; rotational damping per axis; all scale with sigma.
+* ground effect ``g_e`` from the height of the level rotor plane (see aero.py).
+* gravity ``+g`` along z_N.
+
+Euler: ``J dw/dt = M - w x (J w + h_r)``; quaternion: ``dq/dt = q * (0, w) / 2``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+Vec3 = tuple[float, float, float]
+Mat3 = tuple[Vec3, Vec3, Vec3]
+State = list[float]
+Inputs = tuple[float, float, float, float, float, float, float, float]
+Derivative = Callable[[Sequence[float], Inputs], tuple[float, ...]]
+
+N_STATES = 17
+
+
+@dataclass(frozen=True)
+class DynamicsConstants:
+    """Everything the derivative needs, in SI units, rotor quantities per rotor index."""
+
+    gravity_mps2: float
+    mass_kg: float
+    inertia_B_kgm2: Mat3
+    inverse_inertia_B: Mat3
+    #: Hub x, y relative to the CG (body FRD, m).
+    rotor_x_m: tuple[float, float, float, float]
+    rotor_y_m: tuple[float, float, float, float]
+    #: k_T * thrust factor (N/(rad/s)^2).
+    k_T: tuple[float, float, float, float]
+    #: spin sign * k_Q * thrust factor (N m/(rad/s)^2).
+    k_Q_signed: tuple[float, float, float, float]
+    #: spin sign * rotor inertia (kg m^2).
+    j_rotor_signed: tuple[float, float, float, float]
+    tau_up_s: float
+    tau_down_s: float
+    linear_drag: Vec3
+    quadratic_drag: Vec3
+    rotor_drag: float
+    angular_drag: Vec3
+    #: Rotor-plane height above ground is ``ge_z0_m - p_N[2]`` (level approximation).
+    ge_z0_m: float
+    ge_cutoff_m: float
+    ge_gain: Callable[[float], float]
+
+
+def make_derivative(k: DynamicsConstants) -> Derivative:
+    """Build ``f(x, u) -> dx/dt`` (a 17-tuple) with the constants bound in."""
+    g = k.gravity_mps2
+    minv = 1.0 / k.mass_kg
+    (jxx, jxy, jxz), (_, jyy, jyz), (_, _, jzz) = k.inertia_B_kgm2
+    (ixx, ixy, ixz), (iyx, iyy, iyz), (izx, izy, izz) = k.inverse_inertia_B
+    rx0, rx1, rx2, rx3 = k.rotor_x_m
+    ry0, ry1, ry2, ry3 = k.rotor_y_m
+    kt0, kt1, kt2, kt3 = k.k_T
+    kq0, kq1, kq2, kq3 = k.k_Q_signed
+    jr0, jr1, jr2, jr3 = k.j_rotor_signed
+    tu = 1.0 / k.tau_up_s
+    td = 1.0 / k.tau_down_s
+    dlx, dly, dlz = k.linear_drag
+    dqx, dqy, dqz = k.quadratic_drag
+    krd = k.rotor_drag
+    dax, day, daz = k.angular_drag
+    ge_z0 = k.ge_z0_m
+    ge_cut = k.ge_cutoff_m
+    ge_gain = k.ge_gain
+
+    def derivative(x: Sequence[float], u: Inputs) -> tuple[float, ...]:
+        px, py, pz, vx, vy, vz, qw, qx, qy, qz, wx, wy, wz, o0, o1, o2, o3 = x
+        c0, c1, c2, c3, wn, we, wd, sig = u
+        # Motor lag, separate time constants up/down.
+        d0 = (c0 - o0) * (tu if c0 > o0 else td)
+        d1 = (c1 - o1) * (tu if c1 > o1 else td)
+        d2 = (c2 - o2) * (tu if c2 > o2 else td)
+        d3 = (c3 - o3) * (tu if c3 > o3 else td)
+        zr = ge_z0 - pz
+        kk = sig * ge_gain(zr) if zr < ge_cut else sig
+        t0 = kt0 * o0 * o0 * kk
+        t1 = kt1 * o1 * o1 * kk
+        t2 = kt2 * o2 * o2 * kk
+        t3 = kt3 * o3 * o3 * kk
+        # R(q) for body -> NED.
+        xx, yy, zz = qx * qx, qy * qy, qz * qz
+        xy, xz, yz = qx * qy, qx * qz, qy * qz
+        wqx, wqy, wqz = qw * qx, qw * qy, qw * qz
+        r00 = 1.0 - 2.0 * (yy + zz)
+        r01 = 2.0 * (xy - wqz)
+        r02 = 2.0 * (xz + wqy)
+        r10 = 2.0 * (xy + wqz)
+        r11 = 1.0 - 2.0 * (xx + zz)
+        r12 = 2.0 * (yz - wqx)
+        r20 = 2.0 * (xz - wqy)
+        r21 = 2.0 * (yz + wqx)
+        r22 = 1.0 - 2.0 * (xx + yy)
+        # Air-relative velocity in body axes, then drag.
+        ux, uy, uz = vx - wn, vy - we, vz - wd
+        bx = r00 * ux + r10 * uy + r20 * uz
+        by = r01 * ux + r11 * uy + r21 * uz
+        bz = r02 * ux + r12 * uy + r22 * uz
+        kr = krd * (o0 + o1 + o2 + o3)
+        fx = -sig * (dlx + kr + dqx * abs(bx)) * bx
+        fy = -sig * (dly + kr + dqy * abs(by)) * by
+        fz = -sig * (dlz + dqz * abs(bz)) * bz - (t0 + t1 + t2 + t3)
+        ax = (r00 * fx + r01 * fy + r02 * fz) * minv
+        ay = (r10 * fx + r11 * fy + r12 * fz) * minv
+        az = (r20 * fx + r21 * fy + r22 * fz) * minv + g
+        # Moments about the CG.
+        hr = jr0 * o0 + jr1 * o1 + jr2 * o2 + jr3 * o3
+        mx = -(ry0 * t0 + ry1 * t1 + ry2 * t2 + ry3 * t3) - sig * dax * wx + wy * hr
+        my = rx0 * t0 + rx1 * t1 + rx2 * t2 + rx3 * t3 - sig * day * wy - wx * hr
+        mz = (
+            sig * (kq0 * o0 * o0 + kq1 * o1 * o1 + kq2 * o2 * o2 + kq3 * o3 * o3)
+            + jr0 * d0
+            + jr1 * d1
+            + jr2 * d2
+            + jr3 * d3
+            - sig * daz * wz
+        )
+        hx = jxx * wx + jxy * wy + jxz * wz
+        hy = jxy * wx + jyy * wy + jyz * wz
+        hz = jxz * wx + jyz * wy + jzz * wz
+        mx -= wy * hz - wz * hy
+        my -= wz * hx - wx * hz
+        mz -= wx * hy - wy * hx
+        return (
+            vx,
+            vy,
+            vz,
+            ax,
+            ay,
+            az,
+            -0.5 * (qx * wx + qy * wy + qz * wz),
+            0.5 * (qw * wx + qy * wz - qz * wy),
+            0.5 * (qw * wy + qz * wx - qx * wz),
+            0.5 * (qw * wz + qx * wy - qy * wx),
+            ixx * mx + ixy * my + ixz * mz,
+            iyx * mx + iyy * my + iyz * mz,
+            izx * mx + izy * my + izz * mz,
+            d0,
+            d1,
+            d2,
+            d3,
+        )
+
+    return derivative
+
+
+def rk4_step(f: Derivative, x: State, u: Inputs, h: float) -> State:
+    """One classical RK4 step of length ``h`` (s); renormalises the quaternion."""
+    # zip without strict=: all vectors are N_STATES long by construction (hot path).
+    hh = 0.5 * h
+    k1 = f(x, u)
+    k2 = f([a + hh * b for a, b in zip(x, k1)], u)
+    k3 = f([a + hh * b for a, b in zip(x, k2)], u)
+    k4 = f([a + h * b for a, b in zip(x, k3)], u)
+    h6 = h / 6.0
+    y = [a + h6 * (b + 2.0 * (c + d) + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4)]
+    qw, qx, qy, qz = y[6], y[7], y[8], y[9]
+    n = (qw * qw + qx * qx + qy * qy + qz * qz) ** -0.5
+    y[6], y[7], y[8], y[9] = qw * n, qx * n, qy * n, qz * n
+    return y

@@ -1,0 +1,453 @@
+"""The plant: the quad-rotor, its rotors, battery and environment, stepped in sim time.
+
+Theory of operation. ``step(t_ns, throttle)`` integrates from the current sim time to
+``t_ns`` with the four ESC throttles held. The interval is cut on the tick grid
+(``tick_ns`` from ``t0_ns``); per tick the slow parts are updated once, explicitly: the wind
+(on its own sim-time grid), the air density at the current height, and the battery
+operating point from the rotors' shaft power, which sets ``omega_max`` and so the speed
+commands ``throttle * omega_max``. The tick is then integrated with ``substeps`` fixed RK4
+steps of the 17-state model (dynamics.py), with ground contact handled between sub-steps
+(ground.py). Nothing here reads a clock or does I/O; the only randomness is the wind's
+Generator, passed in.
+
+Reference point: ``p_N_m``/``v_N_mps``/``h_m`` are of the body origin (hub centre), which is
+the empty vehicle's CG; the integrator tracks the CG, which moves with a payload.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from hil.plant import ground, quat
+from hil.plant.aero import BaroWash, GroundEffect
+from hil.plant.atmosphere import ZERO_C_K, Atmosphere
+from hil.plant.battery import Battery
+from hil.plant.dynamics import DynamicsConstants, Inputs, make_derivative, rk4_step
+from hil.plant.params import GustShape, PlantParams
+from hil.plant.rigid_body import MassProperties, base_mass_properties, with_payload
+from hil.plant.rotors import lag_step, rotor_geometry
+from hil.plant.wind import WindModel
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+Four = tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class PlantState:
+    """Truth snapshot. NED world, FRD body; position/velocity of the body origin."""
+
+    t_ns: int
+    p_N_m: Vec3
+    v_N_mps: Vec3
+    q_NB: Quat
+    omega_B_radps: Vec3
+    #: ZYX Euler (roll, pitch, yaw), rad.
+    euler_rpy_rad: Vec3
+    rotor_omega_radps: Four
+    thrust_N: Four
+    battery_V: float
+    battery_soc: float
+    battery_A: float
+    on_ground: bool
+    wind_N_mps: Vec3
+    mass_kg: float
+    #: Altitude of the body origin above its resting height on the field (= -p_N_m[2]).
+    h_m: float
+
+
+@dataclass(frozen=True)
+class SensorTruth:
+    """Physical inputs of the sensors, noise-free (the emulators add their errors).
+
+    ``q_NS``/``omega_S_radps``/``f_S_mps2``: the IMU's orientation (S -> NED), rates and
+    specific force at its location, in its own frame S. ``f_acc_B_mps2``: specific force
+    at the ADXL335, body FRD axes. ``p_static_Pa``: pressure at the barometer port.
+    """
+
+    t_ns: int
+    q_NS: Quat
+    omega_S_radps: Vec3
+    f_S_mps2: Vec3
+    f_acc_B_mps2: Vec3
+    p_static_Pa: float
+    air_T_C: float
+
+
+class Plant:
+    """6-DOF quad-rotor with rotor lag, battery, drag, ground effect, ground contact, wind.
+
+    ``params``: PlantParams; ``rng``: the Generator for the wind turbulence; ``t0_ns``: the
+    sim time of the initial state (at rest on the ground, level, heading
+    ``params.initial_yaw_rad``, rotors stopped).
+    """
+
+    def __init__(self, params: PlantParams, rng: np.random.Generator, *, t0_ns: int = 0) -> None:
+        self.params = params
+        #: Counted oddities: throttle_clamped, throttle_nan, liftoffs, touchdowns,
+        #: battery_empty, battery_power_limited.
+        self.counters: Counter[str] = Counter()
+        self._t0_ns = t0_ns
+        self._t_ns = t0_ns
+        self._atmo = Atmosphere(params.environment)
+        self._wind = WindModel(params.wind, rng, t0_ns=t0_ns)
+        self._battery = Battery(params.battery)
+        self._geom = rotor_geometry(params.rotors)
+        self._ge = GroundEffect(params.aero, params.rotors)
+        self._wash = BaroWash(params.aero, params.rotors)
+        self._g = params.environment.gravity_mps2
+        self._gear_m = params.body.gear_depth_m
+        self._base_mass = base_mass_properties(params.body)
+        self._mass = self._base_mass
+        self._factor = [1.0, 1.0, 1.0, 1.0]
+        self._throttle: Four = (0.0, 0.0, 0.0, 0.0)
+        self._wind_now: Vec3 = self._wind.at(t0_ns)
+        self._sigma = self._atmo.density_ratio(self._gear_m)
+        self._omega_max = self._omega_max_at(self._battery.voltage_V)
+        self._u: Inputs = (0.0, 0.0, 0.0, 0.0, *self._wind_now, self._sigma)
+        q0 = quat.from_euler(0.0, 0.0, params.initial_yaw_rad)
+        self._x = [0.0] * 6 + list(q0) + [0.0] * 7
+        self._on_ground = True
+        ground.rest(self._x, self._mass.cg_B_m)
+        self.last_touchdown: ground.Touchdown | None = None
+        mount = params.sensors
+        self._q_BS = quat.from_euler(*(math.radians(a) for a in mount.imu_rotation_BS_rpy_deg))
+        self._state: PlantState | None = None
+        self._rebuild()
+
+    # -- set-up ----------------------------------------------------------------------------
+    def _rebuild(self) -> None:
+        """Recompute the derivative's constants after a mass or rotor change."""
+        rp, ap = self.params.rotors, self.params.aero
+        c = self._mass.cg_B_m
+        pos = self._geom.position_B_m
+        s = self._geom.spin_sign
+        f = self._factor
+        k = DynamicsConstants(
+            gravity_mps2=self._g,
+            mass_kg=self._mass.mass_kg,
+            inertia_B_kgm2=self._mass.inertia_B_kgm2,
+            inverse_inertia_B=self._mass.inverse_inertia,
+            rotor_x_m=tuple(p[0] - c[0] for p in pos),  # type: ignore[arg-type]
+            rotor_y_m=tuple(p[1] - c[1] for p in pos),  # type: ignore[arg-type]
+            k_T=tuple(rp.k_T_N_per_radps2 * fi for fi in f),  # type: ignore[arg-type]
+            k_Q_signed=tuple(si * rp.k_Q_Nm_per_radps2 * fi for si, fi in zip(s, f, strict=True)),  # type: ignore[arg-type]
+            j_rotor_signed=tuple(si * rp.rotor_inertia_kgm2 for si in s),  # type: ignore[arg-type]
+            tau_up_s=rp.tau_up_s,
+            tau_down_s=rp.tau_down_s,
+            linear_drag=ap.linear_drag_B_N_per_mps,
+            quadratic_drag=ap.quadratic_drag_B_N_per_mps2,
+            rotor_drag=ap.rotor_drag_N_per_mps_per_radps,
+            angular_drag=ap.angular_drag_B_Nm_per_radps,
+            ge_z0_m=c[2] + self._gear_m - rp.rotor_z_B_m,
+            ge_cutoff_m=self._ge.cutoff_m,
+            ge_gain=self._ge.gain,
+        )
+        self._k = k
+        self._f = make_derivative(k)
+        self._state = None
+
+    def _omega_max_at(self, battery_V: float) -> float:
+        rp = self.params.rotors
+        return rp.omega_max_radps * max(battery_V, 0.0) / rp.omega_max_ref_V
+
+    def _shaft_power_W(self, omegas: Sequence[float], sigma: float) -> float:
+        k_q = self.params.rotors.k_Q_Nm_per_radps2 * sigma
+        return sum(k_q * fi * w * w * w for fi, w in zip(self._factor, omegas, strict=True))
+
+    # -- stepping --------------------------------------------------------------------------
+    @property
+    def t_ns(self) -> int:
+        """Sim time of the current state (ns)."""
+        return self._t_ns
+
+    def step(self, t_ns: int, throttle: Sequence[float]) -> None:
+        """Integrate to ``t_ns`` (>= current time) holding the 4 ESC throttles (0..1).
+
+        Out-of-range throttles are clamped (NaN counts as 0) and counted.
+        """
+        if t_ns < self._t_ns:
+            raise ValueError(f"sim time went backwards: {t_ns} < {self._t_ns}")
+        self._throttle = self._clean(throttle)
+        tick = self.params.tick_ns
+        while self._t_ns < t_ns:
+            t = self._t_ns
+            t_end = min(t_ns, t + tick - (t - self._t0_ns) % tick)
+            self._advance(t, t_end)
+            self._t_ns = t_end
+        self._state = None
+
+    def _clean(self, throttle: Sequence[float]) -> Four:
+        if len(throttle) != 4:
+            raise ValueError(f"need 4 throttles, got {len(throttle)}")
+        out = []
+        for v in throttle:
+            d = float(v)
+            if math.isnan(d):
+                self.counters["throttle_nan"] += 1
+                d = 0.0
+            elif d < 0.0 or d > 1.0:
+                self.counters["throttle_clamped"] += 1
+                d = 0.0 if d < 0.0 else 1.0
+            out.append(d)
+        return (out[0], out[1], out[2], out[3])
+
+    def _advance(self, t_ns: int, t_end_ns: int) -> None:
+        """One tick (or part of one): slow updates, then RK4 sub-steps."""
+        p = self.params
+        dt_ns = t_end_ns - t_ns
+        n = -(-dt_ns * p.substeps // p.tick_ns)
+        h_s = dt_ns * 1e-9 / n
+        x = self._x
+        cg = self._mass.cg_B_m
+        self._wind_now = self._wind.at(t_ns)
+        self._sigma = sigma = self._atmo.density_ratio(ground.origin_height_m(x, cg) + self._gear_m)
+        bat = self._battery
+        bat.update(self._shaft_power_W(x[13:17], sigma), p.rotors.efficiency, dt_ns * 1e-9)
+        if bat.power_limited:
+            self.counters["battery_power_limited"] += 1
+        if bat.soc <= 0.0:
+            self.counters["battery_empty"] += 1
+        self._omega_max = om = self._omega_max_at(bat.voltage_V)
+        th = self._throttle
+        wn, we, wd = self._wind_now
+        u: Inputs = (th[0] * om, th[1] * om, th[2] * om, th[3] * om, wn, we, wd, sigma)
+        self._u = u
+        f = self._f
+        for k in range(n):
+            if self._on_ground:
+                if f(x, u)[5] < 0.0:  # free-flight acceleration points up: lift off
+                    self._on_ground = False
+                    self.counters["liftoffs"] += 1
+                else:
+                    rp = p.rotors
+                    for i in range(4):
+                        x[13 + i] = lag_step(x[13 + i], u[i], h_s, rp.tau_up_s, rp.tau_down_s)
+                    continue
+            x = rk4_step(f, x, u, h_s)
+            if ground.origin_height_m(x, cg) < 0.0:
+                self.last_touchdown = ground.touchdown_record(x, t_ns + (k + 1) * dt_ns // n)
+                self.counters["touchdowns"] += 1
+                ground.rest(x, cg)
+                self._on_ground = True
+        self._x = x
+
+    # -- outputs ---------------------------------------------------------------------------
+    def _thrusts(self) -> Four:
+        x = self._x
+        zr = self._k.ge_z0_m - x[2]
+        kk = self._sigma * self._ge.gain(zr)
+        kt = self._k.k_T
+        return (
+            kt[0] * x[13] ** 2 * kk,
+            kt[1] * x[14] ** 2 * kk,
+            kt[2] * x[15] ** 2 * kk,
+            kt[3] * x[16] ** 2 * kk,
+        )
+
+    @property
+    def state(self) -> PlantState:
+        """Frozen truth snapshot at ``t_ns`` (cached until the next change)."""
+        if self._state is not None:
+            return self._state
+        x = self._x
+        c = self._mass.cg_B_m
+        q: Quat = (x[6], x[7], x[8], x[9])
+        w: Vec3 = (x[10], x[11], x[12])
+        rc = quat.rotate(q, c)
+        rv = quat.rotate(q, quat.cross(w, c))
+        p_N = (x[0] - rc[0], x[1] - rc[1], x[2] - rc[2])
+        bat = self._battery
+        self._state = PlantState(
+            t_ns=self._t_ns,
+            p_N_m=p_N,
+            v_N_mps=(x[3] - rv[0], x[4] - rv[1], x[5] - rv[2]),
+            q_NB=q,
+            omega_B_radps=w,
+            euler_rpy_rad=quat.to_euler(q),
+            rotor_omega_radps=(x[13], x[14], x[15], x[16]),
+            thrust_N=self._thrusts(),
+            battery_V=bat.voltage_V,
+            battery_soc=bat.soc,
+            battery_A=bat.current_A,
+            on_ground=self._on_ground,
+            wind_N_mps=self._wind_now,
+            mass_kg=self._mass.mass_kg,
+            h_m=-p_N[2],
+        )
+        return self._state
+
+    def accelerations(self) -> tuple[Vec3, Vec3]:
+        """``(a_N_mps2, alpha_B_radps2)``: CG acceleration (NED) and angular acceleration
+        (body) at the current state and held inputs; zero while resting on the ground."""
+        if self._on_ground:
+            return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        d = self._f(self._x, self._u)
+        return (d[3], d[4], d[5]), (d[10], d[11], d[12])
+
+    def _specific_force_at(self, r_B_m: Vec3, f_cg_B: Vec3, alpha: Vec3, w: Vec3) -> Vec3:
+        c = self._mass.cg_B_m
+        r = (r_B_m[0] - c[0], r_B_m[1] - c[1], r_B_m[2] - c[2])
+        a1 = quat.cross(alpha, r)
+        a2 = quat.cross(w, quat.cross(w, r))
+        return (f_cg_B[0] + a1[0] + a2[0], f_cg_B[1] + a1[1] + a2[1], f_cg_B[2] + a1[2] + a2[2])
+
+    def sensors(self) -> SensorTruth:
+        """Noise-free sensor inputs at ``t_ns`` (see SensorTruth)."""
+        x = self._x
+        m = self.params.sensors
+        q: Quat = (x[6], x[7], x[8], x[9])
+        w: Vec3 = (x[10], x[11], x[12])
+        a_N, alpha = self.accelerations()
+        f_cg_B = quat.rotate_inv(q, (a_N[0], a_N[1], a_N[2] - self._g))
+        f_imu_B = self._specific_force_at(m.imu_position_B_m, f_cg_B, alpha, w)
+        f_acc_B = self._specific_force_at(m.accel_position_B_m, f_cg_B, alpha, w)
+        q_SB = quat.conj(self._q_BS)
+        h = ground.origin_height_m(x, self._mass.cg_B_m)
+        port_above_ground = h + self._gear_m - quat.rotate(q, m.baro_position_B_m)[2]
+        total_thrust = sum(self._thrusts())
+        return SensorTruth(
+            t_ns=self._t_ns,
+            q_NS=quat.mul(q, self._q_BS),
+            omega_S_radps=quat.rotate(q_SB, w),
+            f_S_mps2=quat.rotate(q_SB, f_imu_B),
+            f_acc_B_mps2=f_acc_B,
+            p_static_Pa=self._atmo.pressure_Pa(port_above_ground) + self._wash.error_Pa(total_thrust, h),
+            air_T_C=self._atmo.temperature_K(port_above_ground) - ZERO_C_K,
+        )
+
+    @property
+    def mass_properties(self) -> MassProperties:
+        """Current mass, CG and inertia (with payload)."""
+        return self._mass
+
+    @property
+    def omega_max_radps(self) -> float:
+        """Full-throttle rotor speed (rad/s) at the battery voltage of the last tick."""
+        return self._omega_max
+
+    def hover_rotor_omega_radps(self) -> float:
+        """Rotor speed (rad/s, all rotors equal) whose thrust balances the weight, level,
+        at the current height (ground effect) and air density."""
+        gain = self._ge.gain(self._k.ge_z0_m - self._x[2])
+        k_sum = sum(self._k.k_T) * self._sigma * gain
+        if k_sum <= 0.0:
+            return math.inf
+        return math.sqrt(self._mass.mass_kg * self._g / k_sum)
+
+    def hover_throttle(self) -> float:
+        """Equal throttle on all four ESCs that holds altitude (level) at the current mass,
+        thrust factors, height, air density and battery charge (including the sag that the
+        hover current itself causes). May exceed 1.0: the vehicle cannot hover then."""
+        om = self.hover_rotor_omega_radps()
+        if not math.isfinite(om):
+            return math.inf
+        power = self._shaft_power_W((om, om, om, om), self._sigma)
+        volts, _, _ = self._battery.operating_point(power, self.params.rotors.efficiency)
+        return om / self._omega_max_at(volts)
+
+    # -- run-time changes (scenarios, fault injection) ------------------------------------
+    def _origin_kinematics(self) -> tuple[Vec3, Vec3]:
+        s = self.state
+        return s.p_N_m, s.v_N_mps
+
+    def _place_origin(self, p_N: Vec3, v_N: Vec3) -> None:
+        """Set the CG position/velocity so the body origin has ``p_N``/``v_N``."""
+        x = self._x
+        q: Quat = (x[6], x[7], x[8], x[9])
+        c = self._mass.cg_B_m
+        rc = quat.rotate(q, c)
+        rv = quat.rotate(q, quat.cross((x[10], x[11], x[12]), c))
+        x[0], x[1], x[2] = p_N[0] + rc[0], p_N[1] + rc[1], p_N[2] + rc[2]
+        x[3], x[4], x[5] = v_N[0] + rv[0], v_N[1] + rv[1], v_N[2] + rv[2]
+        if self._on_ground:
+            ground.rest(x, c)
+        self._state = None
+
+    def set_payload(
+        self,
+        extra_mass_kg: float,
+        r_B_m: Vec3 = (0.0, 0.0, 0.1),
+        extra_inertia_kgm2: Vec3 | None = None,
+    ) -> None:
+        """Carry ``extra_mass_kg`` at ``r_B_m`` (body FRD from the body origin; default 0.1 m
+        below) with its own principal inertia; replaces any earlier payload (0 removes it).
+        The CG and inertia change; the body origin's motion is continuous."""
+        p_N, v_N = self._origin_kinematics()
+        self._mass = with_payload(self._base_mass, extra_mass_kg, r_B_m, extra_inertia_kgm2)
+        self._place_origin(p_N, v_N)
+        self._rebuild()
+
+    def set_rotor_thrust_factor(self, index: int, factor: float) -> None:
+        """Scale rotor ``index``'s thrust and drag torque (1 healthy, 0.7 partial loss,
+        0 failed prop/motor)."""
+        if index not in range(4):
+            raise IndexError(f"rotor index {index} not in 0..3")
+        if not (0.0 <= factor <= 2.0):
+            raise ValueError("factor must be within 0..2")
+        self._factor[index] = float(factor)
+        self._rebuild()
+
+    def set_battery_sag(self, extra_ohm: float) -> None:
+        """Add ``extra_ohm`` of series resistance (aged pack, bad connector); 0 removes it."""
+        if not (extra_ohm >= 0.0 and math.isfinite(extra_ohm)):
+            raise ValueError("extra_ohm must be finite and >= 0")
+        self._battery.extra_resistance_ohm = float(extra_ohm)
+
+    def add_wind(self, wind_N_mps: Vec3, until_t_ns: int | None = None, *, start_t_ns: int | None = None) -> int:
+        """Add a constant wind (NED, m/s) from now (or ``start_t_ns``) until ``until_t_ns``
+        (None: for good). Returns a handle for ``remove_wind``."""
+        start = self._t_ns if start_t_ns is None else start_t_ns
+        return self._wind.add_step(wind_N_mps, start, until_t_ns)
+
+    def add_gust(
+        self,
+        peak_N_mps: Vec3,
+        start_t_ns: int,
+        duration_ns: int,
+        shape: GustShape = GustShape.ONE_MINUS_COSINE,
+    ) -> int:
+        """Schedule a gust (NED peak, m/s) of ``shape``; returns a handle for ``remove_wind``."""
+        return self._wind.add_gust(peak_N_mps, start_t_ns, duration_ns, shape)
+
+    def remove_wind(self, handle: int) -> None:
+        """Remove a wind step or gust added earlier."""
+        self._wind.remove(handle)
+
+    def reset_on_ground(self) -> None:
+        """Stand the vehicle on the ground below its current position, level, same heading,
+        rotors stopped. Time, battery, payload and faults are kept."""
+        x = self._x
+        p_N, _ = self._origin_kinematics()
+        self._on_ground = True
+        self._place_origin((p_N[0], p_N[1], 0.0), (0.0, 0.0, 0.0))
+        x[13] = x[14] = x[15] = x[16] = 0.0
+        self._state = None
+
+    def set_kinematic_state(
+        self,
+        p_N_m: Vec3,
+        v_N_mps: Vec3 = (0.0, 0.0, 0.0),
+        q_NB: Quat = quat.IDENTITY,
+        omega_B_radps: Vec3 = (0.0, 0.0, 0.0),
+        rotor_omega_radps: Four | None = None,
+    ) -> None:
+        """Place the vehicle (body origin) anywhere at or above the ground, e.g. to start a
+        test or scenario in flight. At ``h = 0`` it rests on the ground (velocities and tilt
+        dropped); below the ground is refused."""
+        if -p_N_m[2] < 0.0:
+            raise ValueError("cannot place the vehicle below the ground (p_N_m[2] > 0)")
+        x = self._x
+        x[6], x[7], x[8], x[9] = quat.normalized(q_NB)
+        x[10], x[11], x[12] = (float(v) for v in omega_B_radps)
+        if rotor_omega_radps is not None:
+            if len(rotor_omega_radps) != 4 or min(rotor_omega_radps) < 0.0:
+                raise ValueError("need 4 rotor speeds >= 0")
+            x[13], x[14], x[15], x[16] = (float(v) for v in rotor_omega_radps)
+        self._on_ground = -p_N_m[2] == 0.0
+        self._place_origin(p_N_m, v_N_mps)

@@ -1,0 +1,154 @@
+"""Wind in NED: mean + Dryden-like turbulence + steps and gusts, all in sim time.
+
+Theory of operation: the turbulence is three independent first-order Gauss-Markov
+(Ornstein-Uhlenbeck) processes, one per NED axis, with RMS ``sigma_i`` and correlation
+time ``tau_i = L_i / V`` (Dryden's longitudinal spectrum, Taylor's frozen turbulence blown
+past the vehicle at the mean wind speed V). They are advanced exactly,
+``x <- a x + sigma sqrt(1 - a^2) n`` with ``a = exp(-dt / tau)``, on a fixed sim-time grid of
+``update_period_ns`` counted from ``t0_ns``, and held between grid points. Because the grid
+does not depend on how often ``at()`` is called, the same seed gives the same series
+whatever the caller's step sizes. Normal deviates are drawn from the injected Generator in
+blocks (cheaper than per-sample calls).
+
+Steps and gusts are deterministic profiles added on top: ``add_step`` (constant from a
+start time, optionally until an end time) and ``add_gust`` (step or 1-cosine over a
+duration). Each returns a handle for ``remove``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from hil.plant.params import GustParams, GustShape, WindParams
+
+Vec3 = tuple[float, float, float]
+
+#: Normal deviates drawn per block (3 per grid point).
+_BLOCK = 1024
+
+
+@dataclass(frozen=True)
+class _Profile:
+    start_t_ns: int
+    end_t_ns: int | None
+    peak_N_mps: Vec3
+    shape: GustShape
+
+
+class WindModel:
+    """The wind field at the vehicle (uniform in space), NED, m/s."""
+
+    def __init__(self, params: WindParams, rng: np.random.Generator, *, t0_ns: int = 0) -> None:
+        self.params = params
+        self._rng = rng
+        self._mean: Vec3 = params.mean_N_mps
+        self._sigma: Vec3 = params.turbulence_sigma_N_mps
+        self._period_ns = params.update_period_ns
+        self._turbulent = any(s > 0.0 for s in self._sigma)
+        v_mean = max(math.hypot(self._mean[0], self._mean[1]), params.turbulence_min_speed_mps)
+        dt_s = self._period_ns * 1e-9
+        a = [math.exp(-dt_s * v_mean / length) for length in params.turbulence_length_m]
+        self._a = tuple(a)
+        self._b = tuple(s * math.sqrt(1.0 - ai * ai) for s, ai in zip(self._sigma, a, strict=True))
+        self._normals: list[list[float]] = []
+        self._next_normal = 0
+        self._grid_t_ns = t0_ns
+        self._turb: list[float] = [0.0, 0.0, 0.0]
+        if self._turbulent:
+            # Start in the stationary distribution so statistics hold from t0.
+            n = self._draw()
+            self._turb = [s * ni for s, ni in zip(self._sigma, n, strict=True)]
+        self._profiles: dict[int, _Profile] = {}
+        self._next_handle = 1
+        for gust in params.gusts:
+            self.add_gust(gust.peak_N_mps, gust.start_t_ns, gust.duration_ns, gust.shape)
+
+    # -- turbulence ------------------------------------------------------------------------
+    def _draw(self) -> list[float]:
+        if self._next_normal >= len(self._normals):
+            self._normals = self._rng.standard_normal((_BLOCK, 3)).tolist()
+            self._next_normal = 0
+        n = self._normals[self._next_normal]
+        self._next_normal += 1
+        return n
+
+    def _advance(self, t_ns: int) -> None:
+        if not self._turbulent:
+            return
+        a0, a1, a2 = self._a
+        b0, b1, b2 = self._b
+        x0, x1, x2 = self._turb
+        while self._grid_t_ns + self._period_ns <= t_ns:
+            n0, n1, n2 = self._draw()
+            x0 = a0 * x0 + b0 * n0
+            x1 = a1 * x1 + b1 * n1
+            x2 = a2 * x2 + b2 * n2
+            self._grid_t_ns += self._period_ns
+        self._turb = [x0, x1, x2]
+
+    @property
+    def turbulence_N_mps(self) -> Vec3:
+        """The turbulent part at the last grid point reached."""
+        return (self._turb[0], self._turb[1], self._turb[2])
+
+    # -- profiles --------------------------------------------------------------------------
+    def add_step(self, wind_N_mps: Vec3, start_t_ns: int, until_t_ns: int | None = None) -> int:
+        """Add a constant wind from ``start_t_ns`` (until ``until_t_ns``, exclusive, if given)."""
+        if until_t_ns is not None and until_t_ns <= start_t_ns:
+            raise ValueError("until_t_ns must be after start_t_ns")
+        return self._add(_Profile(start_t_ns, until_t_ns, _vec3(wind_N_mps), GustShape.STEP))
+
+    def add_gust(
+        self,
+        peak_N_mps: Vec3,
+        start_t_ns: int,
+        duration_ns: int,
+        shape: GustShape = GustShape.ONE_MINUS_COSINE,
+    ) -> int:
+        """Add a gust of ``shape`` over [start, start + duration) (see GustShape)."""
+        GustParams(_vec3(peak_N_mps), start_t_ns, duration_ns, shape)  # validates
+        return self._add(_Profile(start_t_ns, start_t_ns + duration_ns, _vec3(peak_N_mps), GustShape(shape)))
+
+    def remove(self, handle: int) -> None:
+        """Remove a step or gust; an unknown handle raises KeyError (our misuse)."""
+        del self._profiles[handle]
+
+    def _add(self, profile: _Profile) -> int:
+        handle = self._next_handle
+        self._next_handle += 1
+        self._profiles[handle] = profile
+        return handle
+
+    def profiles_N_mps(self, t_ns: int) -> Vec3:
+        """Sum of the deterministic steps and gusts at ``t_ns``."""
+        wx = wy = wz = 0.0
+        for p in self._profiles.values():
+            if t_ns < p.start_t_ns or (p.end_t_ns is not None and t_ns >= p.end_t_ns):
+                continue
+            if p.shape is GustShape.STEP:
+                k = 1.0
+            else:
+                assert p.end_t_ns is not None
+                k = 0.5 * (1.0 - math.cos(2.0 * math.pi * (t_ns - p.start_t_ns) / (p.end_t_ns - p.start_t_ns)))
+            wx += k * p.peak_N_mps[0]
+            wy += k * p.peak_N_mps[1]
+            wz += k * p.peak_N_mps[2]
+        return (wx, wy, wz)
+
+    # -- total -----------------------------------------------------------------------------
+    def at(self, t_ns: int) -> Vec3:
+        """Total wind (NED, m/s) at ``t_ns``. Call with non-decreasing times."""
+        self._advance(t_ns)
+        px, py, pz = self.profiles_N_mps(t_ns) if self._profiles else (0.0, 0.0, 0.0)
+        m = self._mean
+        t = self._turb
+        return (m[0] + t[0] + px, m[1] + t[1] + py, m[2] + t[2] + pz)
+
+
+def _vec3(v: tuple[float, ...] | list[float]) -> Vec3:
+    if len(v) != 3 or not all(math.isfinite(float(x)) for x in v):
+        raise ValueError(f"need 3 finite components, got {v!r}")
+    return (float(v[0]), float(v[1]), float(v[2]))
