@@ -9,6 +9,7 @@ chunking. mcap-python has no recover of its own (research/ecosystem.md section 1
 
 from __future__ import annotations
 
+import struct
 import zlib
 from pathlib import Path
 
@@ -23,7 +24,7 @@ except ImportError:  # pragma: no cover - zstandard is a dependency
     _ZstdError = McapError  # type: ignore[misc,assignment]
 
 _RECORD_LIMIT = 1 << 30  # a torn tail can decode as an absurd length; do not try to allocate it
-_TORN = (McapError, EOFError, ValueError, _ZstdError, zlib.error, MemoryError, IndexError)
+_TORN = (McapError, EOFError, ValueError, struct.error, _ZstdError, zlib.error, MemoryError, IndexError)
 
 
 def recovered_path(src: Path | str) -> Path:
