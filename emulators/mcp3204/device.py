@@ -93,6 +93,16 @@ class Mcp3204:
         return self._phase
 
     @property
+    def sck(self) -> int:
+        """SCK level the part last saw."""
+        return self._sck
+
+    @property
+    def din(self) -> int:
+        """DIN level the part last saw."""
+        return self._din
+
+    @property
     def dout(self) -> int | None:
         """DOUT level, None while hi-Z."""
         return self._dout

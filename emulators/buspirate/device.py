@@ -1,0 +1,416 @@
+"""Bus Pirate v3 (firmware v6.1) on port ``adc``: terminal, BBIO1 and SPI1, MCP3204 behind.
+
+The firmware reads its UART one byte at a time, so does this model: commands may arrive
+pipelined in one write or split across writes; a multi-byte command keeps a continuation
+(``_cont``) that eats the following bytes. Replies go out as the firmware sends them: the
+0x01 of a bulk transfer at once, each MISO byte as its MOSI byte arrives; write-then-read
+answers only after all its write bytes (and 0x00 at once if a length is out of range, after
+which the firmware reads the would-be data bytes as commands, as here).
+
+Lines: in SPI mode the outputs start open-drain (HiZ); they can drive the MCP3204 only when
+push-pull is configured (0x8x with w = 1), the pull-ups are on (0x4x with x = 1), or the
+target board has its own pull-ups (params). Undriven, the part sees no edges and MISO reads
+the floating level (0 without pull-ups).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from emulators.base import ByteDevice, DeviceEvent
+from emulators.buspirate.defs import (
+    BBIO_VERSION,
+    ERROR,
+    MODE_VERSION,
+    OK,
+    PIN_DIR_FLAG,
+    PIN_MASK,
+    PIN_SET_FLAG,
+    SPI_CON1_V61,
+    SPI_CON1_V62,
+    BbioCmd,
+    Mode,
+    PeripheralBit,
+    Pin,
+    SpiCmd,
+    SpiConfigBit,
+    SpiGroup,
+    spi_mode_number,
+)
+from emulators.buspirate.defs import (
+    sck_Hz as con1_sck_Hz,
+)
+from emulators.buspirate.params import BusPirateParams
+from emulators.buspirate.terminal import Terminal
+from emulators.mcp3204 import Mcp3204
+
+UART_BYTE_NS = 10 * 1_000_000_000 // 115200  # 8N1 at 115200 bit/s
+
+
+@dataclass(frozen=True)
+class BusPirateModeChanged(DeviceEvent):
+    mode: str
+
+
+@dataclass(frozen=True)
+class BusPirateProtocolError(DeviceEvent):
+    """A command the firmware rejects or tolerates; ``byte`` is the offending byte."""
+
+    what: str
+    byte: int
+
+
+@dataclass(frozen=True)
+class BusPirateSpi(DeviceEvent):
+    """One bulk transfer or write-then-read on the SPI pins."""
+
+    mosi: bytes
+    miso: bytes
+
+
+def _firmware_version(firmware: str) -> tuple[int, int]:
+    """(major, minor) from e.g. ``"v6.1 r1676"``, parsed the way flashrom does."""
+    text = firmware.lstrip("v").split()[0] if firmware else "0"
+    major, _, minor = text.partition(".")
+    return int("0" + "".join(c for c in major if c.isdigit())), int("0" + "".join(c for c in minor if c.isdigit()))
+
+
+class BusPirate(ByteDevice):
+    """The Bus Pirate bridge. ``adc`` is the MCP3204 on its SPI pins (may be shared)."""
+
+    name = "adc"
+
+    def __init__(self, params: BusPirateParams, adc: Mcp3204) -> None:
+        super().__init__()
+        self.params = params
+        self.adc = adc
+        self.terminal = Terminal(params)
+        self.mode = Mode.TERMINAL
+        self._fw = _firmware_version(params.firmware)
+        self._cont: Callable[[int, int], None] | None = None
+        self._args = bytearray()
+        self._need = 0
+        self._spi_log: tuple[bytearray, bytearray] | None = None
+        self._other_version = b""
+        self._stream_t0_ns = 0
+        self._stream_sent = 0
+        self._now_ns = 0
+        self._reset_pins()
+        self._reset_spi()
+        self._send(self.terminal.reset())  # power-up banner (flushed by the host's open)
+
+    # -- ByteDevice --------------------------------------------------------------------
+    def receive(self, data: bytes, t_ns: int) -> None:
+        self._now_ns = t_ns
+        if self.host_baud is not None and self.host_baud != self.params.baud_bps:
+            # Wrong line rate: the PIC's UART sees framing errors and drops the bytes.
+            self.counters["bytes_at_wrong_baud"] += len(data)
+            return
+        self.counters["bytes_rx"] += len(data)
+        for byte in data:
+            if self._cont is not None:
+                self._cont(byte, t_ns)
+            else:
+                self._dispatch(byte, t_ns)
+        self._events.extend(self.adc.take_events())
+
+    def advance(self, t_ns: int) -> None:
+        self._now_ns = max(self._now_ns, t_ns)
+        if self.mode is Mode.ADC_STREAM:
+            due = (t_ns - self._stream_t0_ns) // (2 * UART_BYTE_NS)
+            n = max(0, min(due - self._stream_sent, 2048))
+            self._send(b"\x00\x00" * n)  # the probe input is not connected: 0 counts
+            self._stream_sent += n
+
+    # -- dispatch ----------------------------------------------------------------------
+    def _dispatch(self, byte: int, t_ns: int) -> None:
+        mode = self.mode
+        if mode is Mode.TERMINAL:
+            out, binary = self.terminal.feed(byte)
+            self._send(out)
+            if binary:
+                self._enter_bbio(t_ns)
+        elif mode is Mode.BBIO:
+            self._bbio(byte, t_ns)
+        elif mode is Mode.SPI:
+            self._spi(byte, t_ns)
+        elif mode is Mode.OTHER:
+            self._other(byte, t_ns)
+        elif mode is Mode.SELFTEST:
+            self._selftest(byte, t_ns)
+        elif mode is Mode.ADC_STREAM:
+            self._set_mode(Mode.BBIO, t_ns)  # any byte ends the stream (and is consumed)
+        elif mode is Mode.SNIFF:
+            self._set_mode(Mode.SPI, t_ns)  # any byte ends the sniffer (and is consumed)
+
+    def _set_mode(self, mode: Mode, t_ns: int) -> None:
+        if mode is not self.mode:
+            self.mode = mode
+            self._event(BusPirateModeChanged(t_ns, mode.name))
+
+    def _error(self, t_ns: int, what: str, byte: int) -> None:
+        self.counters["protocol_errors"] += 1
+        self.counters[what] += 1
+        self._event(BusPirateProtocolError(t_ns, what, byte))
+
+    def _collect(self, n: int, then: Callable[[bytes, int], None]) -> None:
+        """Read ``n`` argument bytes, then call ``then(args, t_ns)``."""
+        self._args = bytearray()
+        self._need = n
+
+        def cont(byte: int, t_ns: int) -> None:
+            self._args.append(byte)
+            if len(self._args) >= self._need:
+                self._cont = None
+                then(bytes(self._args), t_ns)
+
+        self._cont = cont
+
+    # -- bitbang mode (binIO.c binBB) -----------------------------------------------------
+    def _enter_bbio(self, t_ns: int) -> None:
+        self._reset_pins()
+        self._set_mode(Mode.BBIO, t_ns)
+        self._send(BBIO_VERSION)
+
+    def _bbio(self, byte: int, t_ns: int) -> None:
+        if byte & PIN_SET_FLAG:
+            self._send(bytes([self._pin_set(byte, t_ns)]))
+            return
+        if byte == BbioCmd.RESET_BBIO:
+            self._send(BBIO_VERSION)
+        elif byte == BbioCmd.SPI:
+            self._reset_pins()
+            self._set_mode(Mode.SPI, t_ns)
+            self._reset_spi()
+            self._apply_lines(t_ns)
+            self._send(MODE_VERSION[BbioCmd.SPI])
+        elif byte in MODE_VERSION:
+            self._reset_pins()
+            self._other_version = MODE_VERSION[BbioCmd(byte)]
+            self.counters["unemulated_mode_entries"] += 1
+            self._set_mode(Mode.OTHER, t_ns)
+            self._send(self._other_version)
+        elif byte == BbioCmd.RESET_TO_TERMINAL:
+            self._send(bytes([OK]))
+            self._reset_pins()
+            self._set_mode(Mode.TERMINAL, t_ns)
+            self._send(self.terminal.reset())
+        elif byte in (BbioCmd.SELFTEST_SHORT, BbioCmd.SELFTEST_FULL):
+            self._set_mode(Mode.SELFTEST, t_ns)
+            self._send(bytes([self.params.selftest_errors & 0xFF]))
+        elif byte == BbioCmd.PWM_SETUP:
+            self._collect(5, lambda args, t: self._send(bytes([OK])))
+        elif byte == BbioCmd.PWM_CLEAR:
+            self._send(bytes([OK]))
+        elif byte == BbioCmd.ADC_MEASURE:
+            self._send(b"\x00\x00")  # nothing on the ADC probe pin
+        elif byte == BbioCmd.ADC_CONTINUOUS:
+            self._stream_t0_ns, self._stream_sent = t_ns, 0
+            self._set_mode(Mode.ADC_STREAM, t_ns)
+        elif byte == BbioCmd.FREQ_MEASURE:
+            self._send(b"\x00\x00\x00\x00")  # no signal on AUX
+        elif byte & PIN_DIR_FLAG:
+            self._send(bytes([self._pin_dir(byte, t_ns)]))
+        else:
+            self._send(bytes([ERROR]))
+            self._error(t_ns, "unknown_bbio_command", byte)
+
+    def _selftest(self, byte: int, t_ns: int) -> None:
+        if byte == 0xFF:
+            self._send(bytes([OK]))
+            self._set_mode(Mode.BBIO, t_ns)
+        else:
+            self._send(bytes([(byte + self.params.selftest_errors) & 0xFF]))
+
+    def _other(self, byte: int, t_ns: int) -> None:
+        if byte == 0x00:
+            self._reset_pins()
+            self._set_mode(Mode.BBIO, t_ns)
+            self._send(BBIO_VERSION)
+        elif byte == 0x01:
+            self._send(self._other_version)
+        else:
+            self.counters["unemulated_mode_bytes"] += 1
+
+    # -- pins -----------------------------------------------------------------------------
+    def _reset_pins(self) -> None:
+        """binReset(): all pins inputs, latches low, power and pull-ups off."""
+        self._dir = PIN_MASK
+        self._lat = 0
+        self._power = False
+        self._pullups = False
+        self._aux = 0
+
+    def _pin_dir(self, byte: int, t_ns: int) -> int:
+        self._dir = byte & PIN_MASK
+        self._apply_pins(t_ns)
+        return (byte & ~PIN_MASK & 0xFF) | self._pin_read()
+
+    def _pin_set(self, byte: int, t_ns: int) -> int:
+        self._power = bool(byte & Pin.POWER)
+        self._pullups = bool(byte & Pin.PULLUP)
+        self._lat = byte & PIN_MASK
+        self._apply_pins(t_ns)
+        return (byte & ~PIN_MASK & 0xFF) | self._pin_read()
+
+    def _level(self, pin: Pin) -> int | None:
+        """Level on a pin driven by the Bus Pirate in bitbang mode; None if floating."""
+        if not self._dir & pin:
+            return 1 if self._lat & pin else 0
+        if self._pullups or self.params.target_pullups:
+            return 1
+        return None
+
+    def _apply_pins(self, t_ns: int) -> None:
+        cs, sck, din = self._level(Pin.CS), self._level(Pin.CLK), self._level(Pin.MOSI)
+        adc = self.adc
+        adc.set_pins(  # a floating pin keeps its last level: the part sees no edge
+            t_ns,
+            cs=(0 if adc.cs_low else 1) if cs is None else cs,
+            sck=adc.sck if sck is None else sck,
+            din=adc.din if din is None else din,
+        )
+
+    def _pin_read(self) -> int:
+        value = 0
+        for pin in (Pin.CS, Pin.MISO, Pin.CLK, Pin.MOSI, Pin.AUX):
+            if pin is Pin.MISO and self._dir & pin:
+                dout = self.adc.dout
+                level = (1 if self._pullups else 0) if dout is None else dout
+            else:
+                level = self._level(pin) or 0
+            value |= pin if level else 0
+        return value
+
+    # -- SPI mode (SPI.c binSPI) ------------------------------------------------------------
+    def _reset_spi(self) -> None:
+        """binSPI() defaults: 125 kHz (code 1), CKP 0, CKE 1, SMP 0, HiZ outputs, CS high."""
+        self._speed = 1
+        self._config = SpiConfigBit.CKE  # 0010: HiZ, idle low, active-to-idle, middle
+        self._cs_latch = 1
+        self._periph = 0
+
+    @property
+    def spi_mode(self) -> int:
+        """SPI mode number the current config gives the MCP3204."""
+        return spi_mode_number(self._config)
+
+    @property
+    def sck_Hz(self) -> float:
+        table = SPI_CON1_V62 if self._fw >= (6, 2) else SPI_CON1_V61
+        return con1_sck_Hz(table[self._speed])
+
+    def _lines_driven(self) -> bool:
+        return bool(self._config & SpiConfigBit.PUSH_PULL) or self._pullups or self.params.target_pullups
+
+    def _apply_lines(self, t_ns: int) -> None:
+        """Bring the part's CS and idle clock in line with the SPI settings."""
+        if not self._lines_driven():
+            return
+        self.adc.set_sck(1 if self._config & SpiConfigBit.CKP else 0, t_ns)
+        if self._cs_latch:
+            self.adc.deselect(t_ns)
+        else:
+            self.adc.select(t_ns)
+
+    def _xfer(self, mosi: bytes, t_ns: int) -> bytes:
+        if not self._lines_driven():
+            self.counters["spi_bytes_lines_undriven"] += len(mosi)
+            return bytes(len(mosi))
+        miso = self.adc.exchange(mosi, t_ns, self.spi_mode, hiz_bit=int(self._pullups), f_sck_Hz=self.sck_Hz)
+        return miso
+
+    def _spi(self, byte: int, t_ns: int) -> None:
+        group = byte >> 4
+        if group == SpiGroup.SETUP:
+            self._spi_setup(byte, t_ns)
+        elif group == SpiGroup.BULK:
+            self._send(bytes([OK]))
+            self._spi_log = (bytearray(), bytearray())
+            self._bulk(byte & 0x0F)
+        elif group == SpiGroup.PERIPHERALS:
+            self._periph = byte & 0x0F
+            self._power = bool(byte & PeripheralBit.POWER)
+            self._pullups = bool(byte & PeripheralBit.PULLUPS)
+            self._aux = 1 if byte & PeripheralBit.AUX else 0
+            self._cs_latch = 1 if byte & PeripheralBit.CS else 0
+            self._apply_lines(t_ns)
+            self._send(bytes([OK]))
+        elif group == SpiGroup.SPEED and not byte & 0x08:
+            self._speed = byte & 0x07
+            self._send(bytes([OK]))
+        elif group == SpiGroup.CONFIG:
+            self._config = byte & 0x0F
+            self._apply_lines(t_ns)
+            self._send(bytes([OK]))
+        elif self.params.readback_commands and byte in (0x50, 0x70, 0x90):
+            value = {0x50: 0x40 | self._periph, 0x70: 0x60 | self._speed, 0x90: 0x80 | self._config}[byte]
+            self._send(bytes([value]))
+        else:
+            self._send(bytes([ERROR]))
+            self._error(t_ns, "unknown_spi_command", byte)
+
+    def _spi_setup(self, byte: int, t_ns: int) -> None:
+        if byte == SpiCmd.EXIT:
+            self._reset_pins()
+            self._set_mode(Mode.BBIO, t_ns)
+            self._send(BBIO_VERSION)
+        elif byte == SpiCmd.VERSION:
+            self._send(MODE_VERSION[BbioCmd.SPI])
+        elif byte in (SpiCmd.CS_LOW, SpiCmd.CS_HIGH):
+            self._cs_latch = 0 if byte == SpiCmd.CS_LOW else 1
+            self._apply_lines(t_ns)
+            self._send(bytes([OK]))
+        elif byte in (SpiCmd.WRITE_THEN_READ, SpiCmd.WRITE_THEN_READ_NO_CS):
+            self._collect(4, lambda args, t: self._wtr_lengths(byte, args, t))
+        elif byte in (SpiCmd.SNIFF_ALL, SpiCmd.SNIFF_CS_LOW):
+            self._send(bytes([OK]))
+            self._set_mode(Mode.SNIFF, t_ns)  # no other master on this bus: nothing to show
+        else:
+            self._send(bytes([ERROR]))
+            self._error(t_ns, "unknown_spi_command", byte)
+
+    def _bulk(self, remaining: int) -> None:
+        def cont(byte: int, t_ns: int) -> None:
+            nonlocal remaining
+            miso = self._xfer(bytes([byte]), t_ns)
+            self._send(miso)
+            assert self._spi_log is not None
+            self._spi_log[0].append(byte)
+            self._spi_log[1].extend(miso)
+            if remaining == 0:
+                self._cont = None
+                self.counters["bulk_transfers"] += 1
+                self._event(BusPirateSpi(t_ns, bytes(self._spi_log[0]), bytes(self._spi_log[1])))
+                self._spi_log = None
+            remaining -= 1
+
+        self._cont = cont
+
+    def _wtr_lengths(self, cmd: int, args: bytes, t_ns: int) -> None:
+        n_write = args[0] << 8 | args[1]
+        n_read = args[2] << 8 | args[3]
+        limit = self.params.write_then_read_max_bytes
+        if n_write > limit or n_read > limit:
+            self._send(bytes([ERROR]))
+            self._error(t_ns, "write_then_read_bad_length", cmd)
+            return
+        if n_write == 0:
+            self._wtr_run(cmd, b"", n_read, t_ns)
+        else:
+            self._collect(n_write, lambda data, t: self._wtr_run(cmd, data, n_read, t))
+
+    def _wtr_run(self, cmd: int, data: bytes, n_read: int, t_ns: int) -> None:
+        with_cs = cmd == SpiCmd.WRITE_THEN_READ
+        if with_cs:
+            self._cs_latch = 0
+            self._apply_lines(t_ns)
+        self._xfer(data, t_ns)
+        miso = self._xfer(b"\xff" * n_read, t_ns)  # the firmware reads by sending 0xFF
+        if with_cs:
+            self._cs_latch = 1
+            self._apply_lines(t_ns)
+        self.counters["write_then_reads"] += 1
+        self._event(BusPirateSpi(t_ns, bytes(data) + b"\xff" * n_read, miso))
+        self._send(bytes([OK]) + miso)
