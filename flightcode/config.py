@@ -1,0 +1,412 @@
+"""The flight code's own configuration: one TOML file, read with ``tomllib``, checked by hand.
+
+Every table maps onto a frozen dataclass (units in the field names, defaults = the paper's
+vehicle); docs/flightcode.md documents every key. Only ``[ports]`` is required; any other
+table or key may be left out to take its default. Unknown tables or keys, wrong types and
+out-of-range values are errors naming the file, the dotted key and the reason, e.g.::
+
+    vehicle.toml: attitude.law: must be one of 'generalised', 'paper_literal' (got 'fast')
+
+The dataclasses also carry ``__pydantic_config__ = {"extra": "forbid"}`` so the bench can
+validate the same tables with pydantic; the flight code itself imports only the stdlib here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from flightcode.drivers.analog import AccelChainParams, BaroChainParams, parse_mount
+from flightcode.drivers.buspirate_spi import SPEED_CODES
+from flightcode.drivers.maestro import EscParams
+from flightcode.drivers.ppm_capture import PpmParams
+from flightcode.drivers.sbus import SbusParams
+from flightcode.drivers.xsens import ImuParams
+from flightcode.log import Level
+from flightcode.modes import ModesParams
+
+
+class ConfigError(ValueError):
+    """A config file problem: ``file``, dotted ``key`` and ``reason``."""
+
+    def __init__(self, file: str, key: str, reason: str) -> None:
+        super().__init__(f"{file}: {key}: {reason}" if key else f"{file}: {reason}")
+        self.file = file
+        self.key = key
+        self.reason = reason
+
+
+@dataclass(frozen=True)
+class PortParams:
+    """One serial port: device path and line rate (bit/s)."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    path: str
+    baud: int
+
+
+@dataclass(frozen=True)
+class PortsParams:
+    """``[ports.*]``: where each device is. ``telemetry`` may be omitted when disabled."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    imu: PortParams
+    adc: PortParams
+    rc: PortParams
+    esc: PortParams
+    telemetry: PortParams | None = None
+
+
+@dataclass(frozen=True)
+class AdcParams:
+    """``[adc]``: the SPI bridge, the MCP3204 and its channel map; chains in sub-tables."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    bridge: Literal["buspirate"] = "buspirate"
+    spi_speed_hz: int = 1_000_000
+    vref_V: float = 5.0
+    baro_channel: int = 0
+    accel_channels: tuple[int, int, int] = (1, 2, 3)
+    read_timeout_s: float = 0.01
+    entry_attempts: int = 5
+    reply_timeout_s: float = 0.2
+    resync_interval_s: float = 0.25
+    resync_timeout_s: float = 0.02
+    baro: BaroChainParams = field(default_factory=BaroChainParams)
+    accel: AccelChainParams = field(default_factory=AccelChainParams)
+
+
+@dataclass(frozen=True)
+class RcParams:
+    """``[rc]``: front-end, channel map and stick scaling."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    frontend: Literal["capture", "sbus"] = "capture"
+    channel_roll: int = 1
+    channel_pitch: int = 2
+    channel_throttle: int = 3
+    channel_yaw: int = 4
+    center_us: float = 1500.0
+    half_range_us: float = 500.0
+    throttle_low_us: float = 1000.0
+    throttle_range_us: float = 1000.0
+    max_angle_deg: float = 30.0
+    max_yaw_rate_dps: float = 90.0
+    capture: PpmParams = field(default_factory=PpmParams)
+    sbus: SbusParams = field(default_factory=SbusParams)
+
+
+@dataclass(frozen=True)
+class VehicleParams:
+    """``[vehicle]``: geometry and thrust (paper's quad; F_max is the total of four motors)."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    frame: Literal["x", "plus"] = "x"
+    arm_m: float = 0.25
+    F_max_N: float = 20.6
+    kq_over_kt_m: float = 0.016
+    m_kg: float = 1.1
+
+
+@dataclass(frozen=True)
+class AttitudeParams:
+    """``[attitude]``: memory controller (roll and pitch) and the stick prefilter."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    law: Literal["generalised", "paper_literal"] = "generalised"
+    omega1_radps: float = 2.0
+    omega2_radps: float = 15.0
+    k0_per_s: float = 2.0
+    J_hat_kgm2: float = 0.015
+    tau_ff_s: float = 0.035
+    u_limit_Nm: float = 0.8
+    prefilter_omega_radps: float = 8.0
+
+
+@dataclass(frozen=True)
+class YawParams:
+    """``[yaw]``: PI yaw-rate controller."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    kp_Nm_per_radps: float = 0.15
+    ki_Nm_per_rad: float = 0.15
+    u_limit_Nm: float = 0.15
+
+
+@dataclass(frozen=True)
+class AltitudeParams:
+    """``[altitude]``: model, LQI weights, stick range and take-off threshold."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    T1_s: float = 0.08
+    q_int: float = 8.25e-3
+    q_z: float = 0.0
+    q_vz: float = 0.0
+    q_az: float = 0.0
+    r: float = 1.0
+    alt_range_m: float = 10.0
+    takeoff_alt_m: float = 0.5
+
+
+@dataclass(frozen=True)
+class KfParams:
+    """``[kf]``: altitude Kalman filter noise and the accelerometer source."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    accel_source: Literal["adxl335", "xsens"] = "adxl335"
+    q_a: float = 2.0
+    q_d: float = 0.05
+    q_b: float = 1e-6
+    r_baro_m2: float = 1.28
+    r_acc: float = 0.091
+
+
+@dataclass(frozen=True)
+class FailsafeParams:
+    """``[failsafe]``: RC loss, descent and IMU watchdog."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    rc_loss_s: float = 0.5
+    descend_mps: float = 0.5
+    imu_timeout_s: float = 0.1
+
+
+@dataclass(frozen=True)
+class TelemetryParams:
+    """``[telemetry]``: XBee API downlink."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    enable: bool = True
+    ap_mode: Literal[1, 2] = 1
+    dest16: int = 0x0000
+    divider: int = 8
+    request_status: bool = False
+    max_out_waiting: int = 256
+
+
+@dataclass(frozen=True)
+class LogParams:
+    """``[log]``: stderr log level and the period of the stats line (sensor time)."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    level: Literal["debug", "info", "warning", "error"] = "info"
+    stats_period_s: float = 1.0
+
+
+@dataclass(frozen=True)
+class FlightConfig:
+    """The whole file."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    ports: PortsParams
+    imu: ImuParams = field(default_factory=ImuParams)
+    adc: AdcParams = field(default_factory=AdcParams)
+    rc: RcParams = field(default_factory=RcParams)
+    esc: EscParams = field(default_factory=EscParams)
+    vehicle: VehicleParams = field(default_factory=VehicleParams)
+    attitude: AttitudeParams = field(default_factory=AttitudeParams)
+    yaw: YawParams = field(default_factory=YawParams)
+    altitude: AltitudeParams = field(default_factory=AltitudeParams)
+    kf: KfParams = field(default_factory=KfParams)
+    failsafe: FailsafeParams = field(default_factory=FailsafeParams)
+    telemetry: TelemetryParams = field(default_factory=TelemetryParams)
+    modes: ModesParams = field(default_factory=ModesParams)
+    log: LogParams = field(default_factory=LogParams)
+
+    @property
+    def T_s(self) -> float:
+        """Loop period = IMU sample period, s."""
+        return 1.0 / self.imu.rate_hz
+
+    @property
+    def log_level(self) -> Level:
+        return Level[self.log.level.upper()]
+
+
+# -- generic structural check -----------------------------------------------------------------
+def _type_name(tp: Any) -> str:
+    if dataclasses.is_dataclass(tp):
+        return "a table"
+    return {int: "an integer", float: "a number", bool: "true or false", str: "a string"}.get(tp, str(tp))
+
+
+def _convert(file: str, key: str, tp: Any, value: Any) -> Any:
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        options = [a for a in typing.get_args(tp) if a is not type(None)]
+        return _convert(file, key, options[0], value)
+    if origin is Literal:
+        choices = typing.get_args(tp)
+        if value not in choices or type(value) is not type(choices[0]):
+            raise ConfigError(file, key, f"must be one of {', '.join(repr(c) for c in choices)} (got {value!r})")
+        return value
+    if origin is tuple:
+        args = typing.get_args(tp)
+        if not isinstance(value, list):
+            raise ConfigError(file, key, f"must be an array of {len(args)} values (got {value!r})")
+        if len(value) != len(args):
+            raise ConfigError(file, key, f"must have exactly {len(args)} elements (got {len(value)})")
+        return tuple(_convert(file, f"{key}[{i}]", a, v) for i, (a, v) in enumerate(zip(args, value)))
+    if dataclasses.is_dataclass(tp):
+        if not isinstance(value, dict):
+            raise ConfigError(file, key, f"must be a table (got {value!r})")
+        return _build(file, key, tp, value)
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(file, key, f"must be a number (got {value!r})")
+        if not math.isfinite(value):
+            raise ConfigError(file, key, f"must be finite (got {value!r})")
+        return float(value)
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(file, key, f"must be an integer (got {value!r})")
+        return value
+    if tp is bool or tp is str:
+        if not isinstance(value, tp):
+            raise ConfigError(file, key, f"must be {_type_name(tp)} (got {value!r})")
+        return value
+    raise TypeError(f"config field {key} has unsupported type {tp!r}")  # our bug, not the user's
+
+
+def _build(file: str, prefix: str, cls: Any, table: dict[str, Any]) -> Any:
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    for key in table:
+        if key not in fields:
+            known = ", ".join(sorted(fields))
+            raise ConfigError(file, f"{prefix}.{key}" if prefix else key, f"unknown key (known here: {known})")
+    kwargs = {}
+    for name, f in fields.items():
+        dotted = f"{prefix}.{name}" if prefix else name
+        if name in table:
+            kwargs[name] = _convert(file, dotted, hints[name], table[name])
+        elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+            raise ConfigError(file, dotted, f"missing ({_type_name(hints[name])} is required)")
+    return cls(**kwargs)
+
+
+# -- semantic checks ----------------------------------------------------------------------------
+def _check(file: str, cfg: FlightConfig) -> None:
+    def need(ok: bool, key: str, reason: str) -> None:
+        if not ok:
+            raise ConfigError(file, key, reason)
+
+    positive = {
+        "imu.rate_hz": cfg.imu.rate_hz, "imu.reply_timeout_s": cfg.imu.reply_timeout_s,
+        "adc.vref_V": cfg.adc.vref_V, "adc.read_timeout_s": cfg.adc.read_timeout_s,
+        "adc.reply_timeout_s": cfg.adc.reply_timeout_s, "adc.resync_interval_s": cfg.adc.resync_interval_s,
+        "adc.resync_timeout_s": cfg.adc.resync_timeout_s, "adc.baro.supply_V": cfg.adc.baro.supply_V,
+        "adc.baro.k_per_kPa": cfg.adc.baro.k_per_kPa, "adc.baro.gain": cfg.adc.baro.gain,
+        "adc.baro.zero_average_s": cfg.adc.baro.zero_average_s, "adc.accel.supply_V": cfg.adc.accel.supply_V,
+        "adc.accel.sens_ratio_per_g": cfg.adc.accel.sens_ratio_per_g, "rc.half_range_us": cfg.rc.half_range_us,
+        "rc.throttle_range_us": cfg.rc.throttle_range_us, "rc.max_angle_deg": cfg.rc.max_angle_deg,
+        "rc.max_yaw_rate_dps": cfg.rc.max_yaw_rate_dps, "vehicle.arm_m": cfg.vehicle.arm_m,
+        "vehicle.F_max_N": cfg.vehicle.F_max_N, "vehicle.kq_over_kt_m": cfg.vehicle.kq_over_kt_m,
+        "vehicle.m_kg": cfg.vehicle.m_kg, "attitude.J_hat_kgm2": cfg.attitude.J_hat_kgm2,
+        "attitude.u_limit_Nm": cfg.attitude.u_limit_Nm, "attitude.prefilter_omega_radps":
+        cfg.attitude.prefilter_omega_radps, "attitude.omega1_radps": cfg.attitude.omega1_radps,
+        "attitude.omega2_radps": cfg.attitude.omega2_radps, "yaw.u_limit_Nm": cfg.yaw.u_limit_Nm,
+        "altitude.T1_s": cfg.altitude.T1_s, "altitude.q_int": cfg.altitude.q_int, "altitude.r": cfg.altitude.r,
+        "altitude.alt_range_m": cfg.altitude.alt_range_m, "kf.r_baro_m2": cfg.kf.r_baro_m2,
+        "kf.r_acc": cfg.kf.r_acc, "failsafe.rc_loss_s": cfg.failsafe.rc_loss_s,
+        "failsafe.descend_mps": cfg.failsafe.descend_mps, "failsafe.imu_timeout_s": cfg.failsafe.imu_timeout_s,
+        "telemetry.divider": cfg.telemetry.divider, "log.stats_period_s": cfg.log.stats_period_s,
+        "modes.gesture_hold_s": cfg.modes.gesture_hold_s, "modes.landed_s": cfg.modes.landed_s,
+        "rc.capture.lock_frames": cfg.rc.capture.lock_frames, "rc.capture.stale_ms": cfg.rc.capture.stale_ms,
+    }
+    for key, value in positive.items():
+        need(value > 0, key, f"must be > 0 (got {value})")
+    non_negative = {
+        "attitude.k0_per_s": cfg.attitude.k0_per_s, "attitude.tau_ff_s": cfg.attitude.tau_ff_s,
+        "yaw.kp_Nm_per_radps": cfg.yaw.kp_Nm_per_radps, "yaw.ki_Nm_per_rad": cfg.yaw.ki_Nm_per_rad,
+        "altitude.q_z": cfg.altitude.q_z, "altitude.q_vz": cfg.altitude.q_vz, "altitude.q_az": cfg.altitude.q_az,
+        "altitude.takeoff_alt_m": cfg.altitude.takeoff_alt_m, "kf.q_a": cfg.kf.q_a, "kf.q_d": cfg.kf.q_d,
+        "kf.q_b": cfg.kf.q_b, "telemetry.max_out_waiting": cfg.telemetry.max_out_waiting,
+    }
+    for key, value in non_negative.items():
+        need(value >= 0, key, f"must be >= 0 (got {value})")
+    for name in ("imu", "adc", "rc", "esc", "telemetry"):
+        port = getattr(cfg.ports, name)
+        if port is not None:
+            need(port.path != "", f"ports.{name}.path", "must not be empty")
+            need(port.baud > 0, f"ports.{name}.baud", f"must be > 0 (got {port.baud})")
+    if cfg.imu.identity == "mk4":
+        need(400 % cfg.imu.rate_hz == 0, "imu.rate_hz", f"a mk4 outputs at divisors of 400 Hz (got {cfg.imu.rate_hz})")
+    else:
+        period = round(115_200 / cfg.imu.rate_hz)
+        need(225 <= period <= 1152, "imu.rate_hz", f"legacy MTi rates are 100..512 Hz (got {cfg.imu.rate_hz})")
+    need(cfg.imu.goto_config_attempts >= 1, "imu.goto_config_attempts", "must be >= 1")
+    need(cfg.adc.spi_speed_hz in SPEED_CODES, "adc.spi_speed_hz",
+         f"must be one of {', '.join(str(s) for s in sorted(SPEED_CODES))} (got {cfg.adc.spi_speed_hz})")
+    need(cfg.adc.entry_attempts >= 1, "adc.entry_attempts", "must be >= 1")
+    channels = (cfg.adc.baro_channel, *cfg.adc.accel_channels)
+    need(all(0 <= c <= 3 for c in channels) and len(set(channels)) == 4, "adc.accel_channels",
+         f"baro_channel and accel_channels must be four different MCP3204 channels 0..3 (got {channels})")
+    try:
+        parse_mount(cfg.adc.accel.mount_B)
+    except ValueError as exc:
+        raise ConfigError(file, "adc.accel.mount_B", str(exc)) from None
+    rc_channels = (cfg.rc.channel_roll, cfg.rc.channel_pitch, cfg.rc.channel_throttle, cfg.rc.channel_yaw)
+    need(all(1 <= c <= 16 for c in rc_channels) and len(set(rc_channels)) == 4, "rc.channel_roll",
+         f"roll/pitch/throttle/yaw channels must be four different numbers 1..16 (got {rc_channels})")
+    cap = cfg.rc.capture
+    need(0 < cap.pulse_min_us < cap.pulse_max_us < cap.sync_min_us, "rc.capture.sync_min_us",
+         "need 0 < pulse_min_us < pulse_max_us < sync_min_us")
+    need(1 <= cap.min_channels <= cap.max_channels, "rc.capture.min_channels", "need 1 <= min_channels <= max_channels")
+    need(cap.min_channels >= max(rc_channels), "rc.capture.min_channels",
+         f"must be >= the highest stick channel {max(rc_channels)}")
+    need(cap.stale_ms < 65.5, "rc.capture.stale_ms", "must be below the 65.5 ms capture-timer wrap")
+    esc = cfg.esc
+    need(0 < esc.min_us <= esc.idle_us < esc.max_us <= 4095, "esc.idle_us", "need 0 < min_us <= idle_us < max_us")
+    need(0 <= esc.first_channel <= 20, "esc.first_channel", "must be 0..20 (Maestro channels)")
+    need(cfg.vehicle.m_kg * 9.80665 < cfg.vehicle.F_max_N, "vehicle.F_max_N", "cannot lift m_kg")
+    need(cfg.altitude.takeoff_alt_m < cfg.altitude.alt_range_m, "altitude.takeoff_alt_m", "must be below alt_range_m")
+    need(0 <= cfg.telemetry.dest16 <= 0xFFFF, "telemetry.dest16", "must be a 16-bit address")
+    need(not cfg.telemetry.enable or cfg.ports.telemetry is not None, "ports.telemetry",
+         "missing (telemetry.enable is true)")
+    need(cfg.failsafe.imu_timeout_s > cfg.T_s, "failsafe.imu_timeout_s", "must be longer than one sample period")
+
+
+def parse(text: str, file: str = "<config>") -> FlightConfig:
+    """Parse and check a config from TOML text; ConfigError on any problem."""
+    try:
+        table = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(file, "", f"not valid TOML: {exc}") from None
+    try:
+        cfg = _build(file, "", FlightConfig, table)
+    except ValueError as exc:
+        if isinstance(exc, ConfigError):
+            raise
+        raise ConfigError(file, "", str(exc)) from None
+    _check(file, cfg)
+    return cfg
+
+
+def load(path: str | Path) -> FlightConfig:
+    """Read and check the config file at ``path``; ConfigError on any problem."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(str(p), "", f"cannot read: {exc.strerror or exc}") from None
+    return parse(text, str(p))
