@@ -54,6 +54,8 @@ def test_gains_validate_from_a_toml_table_and_reject_unknown_keys() -> None:
     assert g.k0_per_s == 3.0 and g.u_limit_Nm == 0.6 and g.w1_per_s == MemoryGains().w1_per_s
     with pytest.raises(pydantic.ValidationError):
         adapter.validate_python({"k0": 3.0})
+    with pytest.raises(pydantic.ValidationError, match="u_limit_Nm"):
+        adapter.validate_python({"u_limit_Nm": -0.8})
     with pytest.raises(ValueError):
         MemoryGains(J_hat_kgm2=0.0)
 
