@@ -1,0 +1,423 @@
+"""XSENS MTi device model (sans-I/O): Xbus in, Xbus out, on sim time.
+
+State machine (mtidocs "States", MT0100P §5.3), as the tables below:
+
+* WAKEUP: after power-up or Reset the device sends WakeUp (0x3E) ``wakeup_delay_ns``
+  after the event. WakeUpAck (0x3F) within ``wakeup_window_ns`` (500 ms) -> CONFIG.
+  Otherwise -> MEASUREMENT with the stored configuration; an mk4 first sends its
+  Configuration (0x0D) and eMTS (0x91) messages, a legacy MTi does not. Other messages
+  are ignored (counted) while waking up.
+* CONFIG: requests are answered (commands.py); GoToMeasurement starts streaming.
+* MEASUREMENT: data messages on the output grid; only GoToConfig, Reset and ReqData are
+  valid; every other known message gets Error 0x04 (protocols.md §1.6).
+
+Every state: unknown/unsupported MIDs -> Error 0x04; bad checksums are dropped silently;
+frames for another bus id are ignored. Nothing but data goes out unsolicited while
+measuring, except Error 0x29 on an overrun in error modes 2 and 3.
+
+Time: ``advance(t_ns)`` emits a data message for every instant in (last t, t_ns] with
+``t % output_period_ns == 0`` and ``t >= 0`` (negative sim time is boot). ``receive``
+first advances to its ``t_ns``. SampleTimeFine = ((t + power_on_offset_ns) // 100 us) mod
+2^32; the packet counter (legacy: sample counter) is u16 and wraps.
+
+Line model: the device's rate is ``baud_bps`` (SetBaudrate takes effect at the next Reset
+or power cycle). When the host's rate differs, output reaches the host as a UART at the
+wrong rate receives it (uart.py) and input is lost (counted). Each message occupies the
+line for 10 bits per byte; a data message that does not fit in ``tx_buffer_bytes`` behind
+the bytes still queued is an overrun, handled per error mode (defs.ErrorMode). A
+configuration that needs more than ``baud_bps / 10`` bytes per second is reported when
+measurement starts (LineOverload event, counter ``line_overload``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import fields
+
+import numpy as np
+
+from emulators.base import ByteDevice
+from emulators.xsens import legacy
+from emulators.xsens.codec import Frame, FrameParser, encode_frame
+from emulators.xsens.commands import Commands, Settings, factory_settings, legacy_active
+from emulators.xsens.defs import (
+    BAUD_BPS_BY_CODE,
+    BID_FIRST,
+    BID_MASTER,
+    MID,
+    BaudCode,
+    ErrorCode,
+    ErrorMode,
+    LegacyMode,
+    baud_code_for,
+)
+from emulators.xsens.errors import ErrorModel
+from emulators.xsens.events import (
+    BaudChanged,
+    CommandHandled,
+    LineOverload,
+    ProtocolError,
+    SampleDropped,
+    SampleSent,
+    State,
+    StateChanged,
+)
+from emulators.xsens.frames import Quat, Vec3, quat_normalize, quat_to_euler_deg
+from emulators.xsens.output_config import (
+    Schedule,
+    frame_size,
+    legacy_schedule,
+    mk4_schedule,
+    mtdata2_payload_size,
+)
+from emulators.xsens.params import Identity, PowerUp, XsensParams
+from emulators.xsens.sample import SampleBuilder
+from emulators.xsens.uart import receive_at_wrong_baud
+
+#: Message-driven transitions: state -> {MID: next state}. Each is acknowledged with MID + 1
+#: except WakeUpAck. Timed transition: WAKEUP -> MEASUREMENT when the window elapses.
+TRANSITIONS: dict[State, dict[MID, State]] = {
+    State.WAKEUP: {MID.WAKEUP_ACK: State.CONFIG},
+    State.CONFIG: {MID.GOTO_CONFIG: State.CONFIG, MID.GOTO_MEASUREMENT: State.MEASUREMENT, MID.RESET: State.WAKEUP},
+    State.MEASUREMENT: {MID.GOTO_CONFIG: State.CONFIG, MID.RESET: State.WAKEUP},
+}
+#: Requests answered in MEASUREMENT besides the transitions (polled data).
+MEASUREMENT_REQUESTS = frozenset({MID.REQ_DATA})
+_TICK_STF_NS = 100_000  # SampleTimeFine resolution (10 kHz)
+_PARSER_COUNTERS = tuple(f.name for f in fields(FrameParser().stats))
+
+
+class MtiDevice(ByteDevice):
+    """An XSENS MTi on the ``imu`` port. See the module docstring for the behaviour."""
+
+    name = "imu"
+
+    def __init__(self, params: XsensParams, rng: np.random.Generator) -> None:
+        super().__init__()
+        self.params = params
+        self._identity = Identity(params.identity)
+        self._ident = params.resolved()
+        self._commands = Commands(params, self._ident)
+        self._settings: Settings = factory_settings(params, self._ident, baud_code_for(params.baud_bps))
+        self._baud_bps = params.baud_bps
+        self._parser = FrameParser(max_payload=params.rx_max_payload_bytes, timeout_ns=params.rx_timeout_ns)
+        self._errors = ErrorModel(params, rng)
+        self._builder = SampleBuilder(params)
+        self._builder.alignment = self._settings.alignment
+        g = params.gravity_mps2
+        self._motion: tuple[Quat, Vec3, Vec3] = ((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, -g))
+        self._state = State.MEASUREMENT
+        self._t_ns: int | None = None  # last time seen; None before the first call
+        self._stream_after_ns = -1  # data instants must be later than this
+        self._schedule = self._make_schedule()
+        self._counter = 0  # packet counter (mk4) / sample counter (legacy), u16
+        self._silenced = False
+        self._tx_free_ns = -(1 << 62)  # when the line has sent everything queued
+        self._wakeup_at_ns: int | None = None  # WakeUp pending at this time
+        self._wakeup_deadline_ns: int | None = None  # end of the WakeUpAck window
+        self._boot_pending = PowerUp(params.power_up) is PowerUp.WAKEUP
+
+    # -- properties -------------------------------------------------------------------------
+    @property
+    def state(self) -> State:
+        return self._state
+
+    @property
+    def measuring(self) -> bool:
+        return self._state is State.MEASUREMENT
+
+    @property
+    def output_period_ns(self) -> int | None:
+        """Data message period while measuring and streaming, else None."""
+        return self._schedule.period_ns if self._state is State.MEASUREMENT else None
+
+    @property
+    def baud_bps(self) -> int:
+        """The device's own line rate, bit/s."""
+        return self._baud_bps
+
+    @property
+    def settings(self) -> Settings:
+        """Stored (non-volatile) configuration, for inspection."""
+        return self._settings
+
+    # -- bench inputs -----------------------------------------------------------------------
+    def set_motion(self, q_NS: Sequence[float], omega_S_radps: Sequence[float], f_S_mps2: Sequence[float]) -> None:
+        """Motion at the sensor: ``q_NS`` (w, x, y, z) rotates S (FRD) vectors into NED;
+        ``omega_S_radps`` body rates in S, rad/s; ``f_S_mps2`` specific force in S, m/s^2."""
+        q = quat_normalize((float(q_NS[0]), float(q_NS[1]), float(q_NS[2]), float(q_NS[3])))
+        w = (float(omega_S_radps[0]), float(omega_S_radps[1]), float(omega_S_radps[2]))
+        f = (float(f_S_mps2[0]), float(f_S_mps2[1]), float(f_S_mps2[2]))
+        self._motion = (q, w, f)
+
+    def set_ambient(self, p_Pa: float, temperature_degC: float) -> None:
+        """Static pressure (Pa) and sensor temperature (degC) for BaroPressure/Temperature."""
+        self._builder.pressure_Pa = float(p_Pa)
+        self._builder.temperature_degC = float(temperature_degC)
+
+    # -- fault hooks ------------------------------------------------------------------------
+    def set_silenced(self, on: bool) -> None:
+        """Stop (True) or resume streaming. Like a cut line: the device keeps counting, so
+        the host sees a packet-counter jump when data returns."""
+        self._silenced = bool(on)
+
+    def power_cycle(self, t_ns: int) -> None:
+        """Power off and on at ``t_ns``: new turn-on errors, counters reset, WakeUp again."""
+        t = self._clock(t_ns)
+        self._errors.power_on()
+        self._tx_free_ns = t  # whatever was queued on the line is lost
+        self._restart(t)
+
+    def jump_packet_counter(self, delta: int) -> None:
+        """Add ``delta`` (mod 2^16) to the packet/sample counter."""
+        self._counter = (self._counter + delta) & 0xFFFF
+
+    # -- host side --------------------------------------------------------------------------
+    def line_settings_changed(self, baud: int, t_ns: int) -> None:
+        super().line_settings_changed(baud, t_ns)
+        self._parser.reset()  # a partial frame does not survive a reopen
+        self._sync_parser_counters()
+        if baud != self._baud_bps:
+            self.counters["host_baud_mismatch"] += 1
+
+    def _line_matches(self) -> bool:
+        return self.host_baud is None or self.host_baud == self._baud_bps
+
+    def receive(self, data: bytes, t_ns: int) -> None:
+        t = self._clock(t_ns)
+        self.advance(t)
+        self.counters["rx_bytes"] += len(data)
+        if not self._line_matches():
+            self.counters["rx_wrong_baud_bytes"] += len(data)
+            self._event(ProtocolError(t, f"{len(data)} byte(s) at {self.host_baud} bit/s, device at {self._baud_bps}"))
+            return
+        frames = self._parser.feed(bytes(data), t)
+        before = self.counters["checksum_errors"] + self.counters["oversize_frames"] + self.counters["timeouts"]
+        self._sync_parser_counters()
+        bad = self.counters["checksum_errors"] + self.counters["oversize_frames"] + self.counters["timeouts"] - before
+        if bad:
+            self._event(ProtocolError(t, f"{bad} malformed frame(s) dropped (checksum, length or timeout)"))
+        for frame in frames:
+            self._dispatch(frame, t)
+
+    def advance(self, t_ns: int) -> None:
+        t = self._clock(t_ns)
+        if self._wakeup_at_ns is not None and self._wakeup_at_ns <= t:
+            at, self._wakeup_at_ns = self._wakeup_at_ns, None
+            self._transmit(at, encode_frame(MID.WAKEUP))
+            self._wakeup_deadline_ns = at + self.params.wakeup_window_ns
+        if self._wakeup_deadline_ns is not None and self._wakeup_deadline_ns <= t:
+            self._auto_measurement(self._wakeup_deadline_ns)
+        if self._state is State.MEASUREMENT and self._schedule.period_ns is not None:
+            self._stream_until(t)
+
+    # -- time -------------------------------------------------------------------------------
+    def _clock(self, t_ns: int) -> int:
+        """Monotonic device time; the first call powers a WAKEUP-configured device up."""
+        t = t_ns if self._t_ns is None else max(t_ns, self._t_ns)
+        first = self._t_ns is None
+        self._t_ns = t
+        if first and self._boot_pending:
+            self._boot_pending = False
+            self._restart(t)
+        return t
+
+    def _restart(self, t: int) -> None:
+        """Boot: stored baud takes effect, counter cleared, WakeUp after the boot delay."""
+        self._parser.reset()
+        self._sync_parser_counters()
+        self._counter = 0
+        new_baud = BAUD_BPS_BY_CODE[BaudCode(self._settings.baud_code)]
+        if new_baud != self._baud_bps:
+            self._baud_bps = new_baud
+            self._event(BaudChanged(t, new_baud))
+        self._set_state(State.WAKEUP, t)
+        self._wakeup_deadline_ns = None
+        self._wakeup_at_ns = t + self.params.wakeup_delay_ns
+        self.advance(t)
+
+    def _set_state(self, new: State, t: int) -> None:
+        old, self._state = self._state, new
+        if new is not old:
+            self._event(StateChanged(t, old, new))
+        if new is State.MEASUREMENT:
+            self._stream_after_ns = t
+            self._schedule = self._make_schedule()
+            self._check_line_capacity(t)
+
+    def _auto_measurement(self, t: int) -> None:
+        self._wakeup_deadline_ns = None
+        if self._identity is Identity.MK4:
+            self._transmit(t, encode_frame(MID.CONFIGURATION, self._commands.configuration(self._settings).pack()))
+            self._transmit(t, encode_frame(MID.EMTS_DATA, self._commands.emts()))
+        self._set_state(State.MEASUREMENT, t)
+
+    # -- dispatch ---------------------------------------------------------------------------
+    def _dispatch(self, frame: Frame, t: int) -> None:
+        if frame.bid not in (BID_MASTER, BID_FIRST):
+            self.counters["ignored_frames"] += 1  # addressed to another device on the bus
+            return
+        mid, state = frame.mid, self._state
+        if state is State.WAKEUP and (self._wakeup_at_ns is not None or mid != MID.WAKEUP_ACK):
+            self.counters["ignored_frames"] += 1  # still booting, or not the WakeUpAck
+            return
+        if mid == MID.WAKEUP_ACK and state is not State.WAKEUP:
+            self.counters["ignored_frames"] += 1  # a late WakeUpAck changes nothing
+            return
+        self.counters["commands"] += 1
+        target = TRANSITIONS[state].get(MID(mid)) if mid in MID._value2member_map_ else None
+        if target is not None:
+            self._transition(MID(mid), target, t)
+        elif state is State.MEASUREMENT and mid in MEASUREMENT_REQUESTS:
+            self._polled(t)
+        elif state is State.CONFIG and self._commands.supports(mid):
+            self._request(mid, frame.payload, t)
+        elif mid in TRANSITIONS[State.CONFIG] or self._commands.supports(mid) or mid in MEASUREMENT_REQUESTS:
+            self.counters["wrong_state"] += 1
+            self._error(mid, ErrorCode.INVALID_MESSAGE, t, f"MID {mid:#04x} not valid in {state.name}")
+        else:
+            self.counters["unknown_mids"] += 1
+            self._error(mid, ErrorCode.INVALID_MESSAGE, t, f"unknown or unsupported MID {mid:#04x}")
+
+    def _transition(self, mid: MID, target: State, t: int) -> None:
+        if mid == MID.WAKEUP_ACK:
+            self._wakeup_deadline_ns = None
+            self._event(CommandHandled(t, mid, None))
+            self._set_state(target, t)
+            return
+        self._reply(mid, mid + 1, b"", t)
+        if mid == MID.RESET:
+            self._restart(t)
+        elif target is not self._state:
+            self._set_state(target, t)
+
+    def _request(self, mid: int, payload: bytes, t: int) -> None:
+        reply = self._commands.handle(mid, payload, self._settings)
+        if reply.settings is not None:
+            self._settings = reply.settings
+            self._builder.alignment = reply.settings.alignment
+        if reply.error is not None:
+            self.counters["bad_parameters"] += 1
+            self._error(mid, reply.error, t, f"MID {mid:#04x} refused with {reply.error.name}")
+        elif reply.mid is not None:
+            self._reply(mid, reply.mid, reply.payload, t)
+
+    def _reply(self, mid: int, reply_mid: int, payload: bytes, t: int) -> None:
+        self._transmit(t, encode_frame(reply_mid, payload))
+        self._event(CommandHandled(t, mid, reply_mid))
+
+    def _error(self, mid: int, code: ErrorCode, t: int, reason: str) -> None:
+        self.counters["errors_sent"] += 1
+        self._transmit(t, encode_frame(MID.ERROR, bytes((code,))))
+        self._event(ProtocolError(t, reason))
+        self._event(CommandHandled(t, mid, MID.ERROR, int(code)))
+
+    # -- streaming --------------------------------------------------------------------------
+    def _make_schedule(self) -> Schedule:
+        s = self._settings
+        if legacy_active(self._identity, s):
+            return legacy_schedule(s.period, s.skip_factor)
+        return mk4_schedule(s.output_configuration, self.params.sample_rate_hz)
+
+    def _stream_until(self, t: int) -> None:
+        period = self._schedule.period_ns
+        assert period is not None
+        k = max(self._stream_after_ns // period + 1, 0)
+        while k * period <= t and self._state is State.MEASUREMENT:
+            self._sample(k * period, polled=False)
+            k += 1
+        self._stream_after_ns = max(self._stream_after_ns, t)
+
+    def _polled(self, t: int) -> None:
+        self._event(CommandHandled(t, MID.REQ_DATA, MID.MTDATA if self._legacy_active() else MID.MTDATA2))
+        self._sample(t, polled=True)
+
+    def _legacy_active(self) -> bool:
+        return legacy_active(self._identity, self._settings)
+
+    def _message(self, t: int) -> tuple[bytes, SampleSent]:
+        """Build the data frame for instant ``t`` (draws the sample's errors)."""
+        measured = self._errors.measure(t, *self._motion)
+        m, status = self._builder.saturate(measured)
+        s = self._settings
+        if self._legacy_active():
+            ls = self._builder.legacy_sample(s.output_settings, m, status, self._counter)
+            frame = encode_frame(MID.MTDATA, legacy.encode(s.output_mode, s.output_settings, ls))
+            euler = acc = rate = None
+            if s.output_mode & LegacyMode.ORIENTATION:
+                euler = quat_to_euler_deg(ls.q)
+            if s.output_mode & LegacyMode.CALIBRATED:
+                acc, rate = ls.acc_mps2, ls.rate_radps
+            return frame, SampleSent(t, self._counter, None, euler, rate, acc, len(frame))
+        stf = ((t + self.params.power_on_offset_ns) // _TICK_STF_NS) & 0xFFFF_FFFF
+        period = self._schedule.period_ns or 1_000_000_000 // self.params.sample_rate_hz
+        due = [(x, p) for x, p in self._schedule.items if p is None or t % p == 0]
+        items = [(x, period if p is None else p) for x, p in due]
+        built = self._builder.mtdata2(items, m, status, self._counter, stf, t + self.params.power_on_offset_ns)
+        frame = encode_frame(MID.MTDATA2, built.payload)
+        return frame, SampleSent(t, self._counter, stf, built.euler_deg, built.rate_radps, built.acc_mps2, len(frame))
+
+    def _sample(self, t: int, polled: bool) -> None:
+        frame, sent = self._message(t)
+        if self._silenced and not polled:
+            self.counters["silenced_samples"] += 1
+            self._counter = (self._counter + 1) & 0xFFFF
+            return
+        if not polled and not self._fits(t, len(frame)):
+            self._overrun(t)
+            return
+        self._transmit(t, frame)
+        self._counter = (self._counter + 1) & 0xFFFF
+        self.counters["samples_sent"] += 1
+        self._event(sent)
+
+    def _overrun(self, t: int) -> None:
+        mode = ErrorMode(self._settings.error_mode)
+        self.counters["overruns"] += 1
+        self._event(SampleDropped(t, "overrun", int(mode)))
+        if mode is not ErrorMode.IGNORE:
+            self._counter = (self._counter + 1) & 0xFFFF
+        if mode in (ErrorMode.INCREASE_COUNTER_SEND_ERROR, ErrorMode.SEND_ERROR_GO_CONFIG):
+            self.counters["errors_sent"] += 1
+            self._transmit(t, encode_frame(MID.ERROR, bytes((ErrorCode.DATA_OVERFLOW,))))
+        if mode is ErrorMode.SEND_ERROR_GO_CONFIG:
+            self._set_state(State.CONFIG, t)
+
+    def _check_line_capacity(self, t: int) -> None:
+        if self._schedule.period_ns is None:
+            return
+        probe = self._message_size
+        need = self._schedule.bytes_per_second(probe)
+        capacity = self._baud_bps // 10
+        if need > capacity:
+            self.counters["line_overload"] += 1
+            self._event(LineOverload(t, need, capacity, self._baud_bps))
+
+    def _message_size(self, t: int) -> int:
+        s = self._settings
+        if self._legacy_active():
+            return frame_size(legacy.mtdata_length(s.output_mode, s.output_settings))
+        return frame_size(mtdata2_payload_size(self._schedule.due(t)))
+
+    # -- the line ---------------------------------------------------------------------------
+    def _line_ns(self, nbytes: int) -> int:
+        return -(-nbytes * 10 * 1_000_000_000 // self._baud_bps)
+
+    def _fits(self, t: int, nbytes: int) -> bool:
+        backlog_ns = self._tx_free_ns - t
+        backlog = 0 if backlog_ns <= 0 else -(-backlog_ns * self._baud_bps // 10_000_000_000)
+        return backlog + nbytes <= self.params.tx_buffer_bytes
+
+    def _transmit(self, t: int, frame: bytes) -> None:
+        self._tx_free_ns = max(self._tx_free_ns, t) + self._line_ns(len(frame))
+        self.counters["tx_bytes"] += len(frame)
+        if not self._line_matches():
+            assert self.host_baud is not None
+            self.counters["tx_garbled_bytes"] += len(frame)
+            frame = receive_at_wrong_baud(frame, self._baud_bps, self.host_baud)
+        self._send(frame)
+
+    def _sync_parser_counters(self) -> None:
+        stats = self._parser.stats
+        for name in _PARSER_COUNTERS:
+            self.counters[name] = getattr(stats, name)

@@ -1,0 +1,83 @@
+"""Sensor error model: white noise, turn-on biases, gyro bias random walk, orientation error.
+
+All errors live in the input frames (NED reference, FRD sensor frame S), before the
+output-frame conversion, so every output frame sees the same physical error.
+
+* Rate of turn: ``omega + b_g + n_g``; ``b_g`` drawn at power-on (sigma
+  ``gyro_bias_sigma_radps``) and random-walking, ``b_g += sigma_rw * sqrt(dt) * N``;
+  ``n_g`` white with per-sample sigma = density * sqrt(sample_rate_hz).
+* Specific force: ``f + b_a + n_a`` (constant turn-on bias, white noise).
+* Orientation: the onboard filter's error, bounded (it is corrected by gravity and the
+  magnetic field), modelled as a turn-on Euler-angle offset plus white noise per sample,
+  added to the true ZYX angles.
+
+Random numbers are drawn in a fixed order (12 normals per sample, 9 at power-on) from the
+Generator the device was given, so a run is reproducible from its seed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from emulators.xsens.frames import Quat, Vec3, euler_deg_to_quat, quat_to_euler_deg
+from emulators.xsens.params import XsensParams
+
+
+@dataclass(frozen=True)
+class Measured:
+    """One sample as the sensor measured it (input frames)."""
+
+    q_NS: Quat
+    omega_S_radps: Vec3
+    f_S_mps2: Vec3
+
+
+class ErrorModel:
+    """Stateful error generator; ``power_on`` draws new turn-on errors."""
+
+    def __init__(self, params: XsensParams, rng: np.random.Generator) -> None:
+        self.p = params
+        self.rng = rng
+        root_rate = math.sqrt(params.sample_rate_hz)
+        self._sig_g = params.gyro_noise_radps_per_rthz * root_rate
+        self._sig_a = params.acc_noise_mps2_per_rthz * root_rate
+        self.gyro_bias_S_radps: Vec3 = (0.0, 0.0, 0.0)
+        self.acc_bias_S_mps2: Vec3 = (0.0, 0.0, 0.0)
+        self.euler_offset_deg: Vec3 = (0.0, 0.0, 0.0)
+        self._t_last_ns: int | None = None
+        self.power_on()
+
+    def power_on(self) -> None:
+        p = self.p
+        n = self.rng.standard_normal(9).tolist()
+        self.gyro_bias_S_radps = (n[0] * p.gyro_bias_sigma_radps, n[1] * p.gyro_bias_sigma_radps,
+                                  n[2] * p.gyro_bias_sigma_radps)
+        self.acc_bias_S_mps2 = (n[3] * p.acc_bias_sigma_mps2, n[4] * p.acc_bias_sigma_mps2,
+                                n[5] * p.acc_bias_sigma_mps2)
+        self.euler_offset_deg = (n[6] * p.orientation_bias_rp_deg, n[7] * p.orientation_bias_rp_deg,
+                                 n[8] * p.orientation_bias_yaw_deg)
+        self._t_last_ns = None
+
+    def measure(self, t_ns: int, q_NS: Quat, omega_S_radps: Vec3, f_S_mps2: Vec3) -> Measured:
+        """Apply the errors to the true motion at sample time ``t_ns``."""
+        p = self.p
+        n = self.rng.standard_normal(12).tolist()
+        dt_s = 0.0 if self._t_last_ns is None else max(t_ns - self._t_last_ns, 0) * 1e-9
+        self._t_last_ns = t_ns
+        rw = p.gyro_bias_rw_radps_per_rts * math.sqrt(dt_s)
+        bg = self.gyro_bias_S_radps
+        bg = (bg[0] + rw * n[0], bg[1] + rw * n[1], bg[2] + rw * n[2])
+        self.gyro_bias_S_radps = bg
+        sg, sa, ba = self._sig_g, self._sig_a, self.acc_bias_S_mps2
+        omega = (omega_S_radps[0] + bg[0] + sg * n[3], omega_S_radps[1] + bg[1] + sg * n[4],
+                 omega_S_radps[2] + bg[2] + sg * n[5])
+        f = (f_S_mps2[0] + ba[0] + sa * n[6], f_S_mps2[1] + ba[1] + sa * n[7], f_S_mps2[2] + ba[2] + sa * n[8])
+        off, so = self.euler_offset_deg, p.orientation_noise_deg
+        if off == (0.0, 0.0, 0.0) and so == 0.0:
+            return Measured(q_NS, omega, f)
+        roll, pitch, yaw = quat_to_euler_deg(q_NS)
+        q = euler_deg_to_quat(roll + off[0] + so * n[9], pitch + off[1] + so * n[10], yaw + off[2] + so * n[11])
+        return Measured(q, omega, f)
