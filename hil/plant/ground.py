@@ -48,7 +48,7 @@ def origin_height_m(x: list[float], cg_B_m: Vec3) -> float:
         + 2.0 * (qy * qz + qw * qx) * cg_B_m[1]
         + (1.0 - 2.0 * (qx * qx + qy * qy)) * cg_B_m[2]
     )
-    return -(x[2] - rc_z)
+    return rc_z - x[2]
 
 
 def rest(x: list[float], cg_B_m: Vec3) -> None:

@@ -102,15 +102,16 @@ class RotorParams:
     #: Full-throttle rotor speed at ``omega_max_ref_V``: ~8000 rpm (Table 1).
     omega_max_radps: float = 8000.0 * _RPM_TO_RADPS
     #: Battery voltage at which ``omega_max_radps`` holds (omega_max scales with voltage).
-    #: 12.2 V is a full 3S pack under hover load (12.6 V open circuit minus ~0.4 V sag), so
-    #: the paper's hover throttle 0.724 (paper.md 3.1) is what the vehicle needs at take-off.
-    omega_max_ref_V: float = 12.2
+    #: 12.15 V is a full 3S pack under hover load (12.6 V open circuit minus ~0.45 V sag),
+    #: so the paper's hover throttle 0.724 (paper.md 3.1) is what it needs at take-off.
+    omega_max_ref_V: float = 12.15
     #: Thrust of one rotor at ``omega_max_radps`` in ISA sea-level air: (1.1 kg + 1.0 kg
     #: lift) * g / 4 = 20.6 N / 4 (Table 1, paper.md 3.1: F = F_max d^2).
     thrust_max_N: float = (1.1 + 1.0) * G0_MPS2 / 4.0
-    #: Drag torque / thrust (= k_Q / k_T), assumed for a 12x4.5 prop; with the efficiency
-    #: below it gives ~11 A at hover, i.e. the ~10 min flight of Table 1 on 2100 mAh.
-    torque_per_thrust_m: float = 0.0145
+    #: Drag torque / thrust (= k_Q / k_T) of the APC 12x4.5: static C_P / (2 pi C_T) x D
+    #: gives 0.016-0.020 m; 0.016 is also the flight code's mixer constant. With the
+    #: efficiency below the hover current is ~11 A: the ~10 min flight of Table 1.
+    torque_per_thrust_m: float = 0.016
     #: Motor lag time constants for speeding up / slowing down (PX4 x500
     #: MulticopterMotorModel: 0.0125 s / 0.025 s, protocols.md 6.1).
     tau_up_s: float = 0.0125

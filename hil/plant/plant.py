@@ -278,7 +278,7 @@ class Plant:
             on_ground=self._on_ground,
             wind_N_mps=self._wind_now,
             mass_kg=self._mass.mass_kg,
-            h_m=-p_N[2],
+            h_m=0.0 - p_N[2],  # 0.0 - z, not -z: no -0.0 at rest
         )
         return self._state
 
@@ -367,6 +367,9 @@ class Plant:
         x[3], x[4], x[5] = v_N[0] + rv[0], v_N[1] + rv[1], v_N[2] + rv[2]
         if self._on_ground:
             ground.rest(x, c)
+        # The air density is per tick; refresh it for the new height right away.
+        self._sigma = self._atmo.density_ratio(ground.origin_height_m(x, c) + self._gear_m)
+        self._u = (*self._u[:7], self._sigma)  # type: ignore[assignment]
         self._state = None
 
     def set_payload(
