@@ -46,13 +46,13 @@ class DeviceSet:
     def __init__(self, rig: Rig, *, seed: int, stick_script: object, with_spidriver: bool = False) -> None:
         from emulators.analog.frontend import AnalogFrontEnd
         from emulators.buspirate.device import BusPirate
-        from emulators.esc.device import Esc
+        from emulators.esc.esc import Esc
         from emulators.maestro.device import Maestro
         from emulators.mcp3204.device import Mcp3204
         from emulators.rc.capture import CaptureFrontEnd
         from emulators.rc.ppm import PpmGenerator
-        from emulators.rc.sbus import SbusFrontEnd
-        from emulators.xbee.device import XBeeModule
+        from emulators.rc.sbus import SbusConverter
+        from emulators.xbee.module import XBeeModule
         from emulators.xbee.link import RadioLink
         from emulators.xsens.device import MtiDevice
 
@@ -71,12 +71,13 @@ class DeviceSet:
         self.sticks = stick_script
         self.ppm = PpmGenerator(rig.rc.ppm, self.rngs["ppm"], stick_script)
         self.rc: ByteDevice = (
-            CaptureFrontEnd(rig.rc.capture) if rig.rc.frontend == "capture" else SbusFrontEnd(rig.rc.sbus)
+            CaptureFrontEnd(rig.rc.capture) if rig.rc.frontend == "capture" else SbusConverter(rig.rc.sbus)
         )
         self.maestro = Maestro(rig.esc.maestro)
-        self.escs = [Esc(rig.esc.esc) for _ in range(4)]
-        self.xbee_vehicle = XBeeModule(rig.telemetry.vehicle, self.rngs["xbee_vehicle"])
-        self.xbee_ground = XBeeModule(rig.telemetry.ground, self.rngs["xbee_ground"])
+        esc_rngs = self.rngs["esc"].spawn(4)
+        self.escs = [Esc(rig.esc.esc, r) for r in esc_rngs]
+        self.xbee_vehicle = XBeeModule(rig.telemetry.vehicle, self.rngs["xbee_vehicle"], name="telemetry")
+        self.xbee_ground = XBeeModule(rig.telemetry.ground, self.rngs["xbee_ground"], name="ground")
         self.link = RadioLink(rig.telemetry.link, self.rngs["link"])
         self.link.connect(self.xbee_vehicle, self.xbee_ground)
 

@@ -82,7 +82,10 @@ def write_flight_config(rig: Rig, scenario: Scenario, ports: dict[str, PtyPort],
     config = deep_merge(config, scenario.flight)
     port_table = dict(config.get("ports", {}))
     for name in ("imu", "adc", "rc", "esc", "telemetry"):
-        port_table[name] = ports[name].path
+        entry = dict(port_table.get(name, {}))
+        entry["path"] = ports[name].path
+        entry.setdefault("baud", 115200)
+        port_table[name] = entry
     config["ports"] = port_table
     path = run_dir / "flight.toml"
     path.write_text(tomli_w.dumps(config))

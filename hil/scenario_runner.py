@@ -47,7 +47,6 @@ class ScenarioRunner:
         self.flight: FlightProcess | None = None
         self.log_event: EventLogger = lambda t_ns, kind, name, detail: None
         self._timed: list[tuple[int, Callable[[int], None], str, dict[str, Any]]] = []
-        self._gusts: list[GustEvent] = []
         self._next = 0
         for key in scenario.timing:
             if key not in TIMING_BUDGETS:
@@ -97,7 +96,7 @@ class ScenarioRunner:
                 until = None if ev.duration_s is None else t_ns + int(round(ev.duration_s * S))
                 self._at(t_ns, lambda t, e=ev, u=until: plant.add_wind(e.wind_N_mps, u), "wind", ev.model_dump())
             elif isinstance(ev, GustEvent):
-                self._gusts.append(ev)
+                plant.add_gust(ev.wind_N_mps, t_ns, int(round(ev.duration_s * S)))
                 self._at(t_ns, lambda t: None, "gust", ev.model_dump())
         self._timed.sort(key=lambda item: item[0])
 
@@ -114,18 +113,6 @@ class ScenarioRunner:
             action(t_ns)
             self.log_event(t_ns, "scenario", name, detail)
             self._next += 1
-        if self._gusts and self.devices is not None:
-            self.devices.plant.set_gust(self._gust_wind(t_ns))
-
-    def _gust_wind(self, t_ns: int) -> tuple[float, float, float]:
-        total = [0.0, 0.0, 0.0]
-        t = t_ns / S
-        for g in self._gusts:
-            if g.t_s <= t <= g.t_s + g.duration_s:
-                shape = 0.5 * (1 - math.cos(2 * math.pi * (t - g.t_s) / g.duration_s))
-                for i in range(3):
-                    total[i] += shape * g.wind_N_mps[i]
-        return (total[0], total[1], total[2])
 
     def phase(self, t_ns: int) -> str:
         label = ""
