@@ -1,0 +1,147 @@
+"""The bench's own decoder of the flight code's telemetry downlink (docs/telemetry.md).
+
+The bench plays the ground station: it reads the XBee API frames the flight code writes
+to the vehicle's module (TX16 0x01 / TX64 0x00, escaped or not), and decodes the payload
+(format version 1, 90 bytes, little-endian). It never imports the flight code: the format
+is a documented wire contract, decoded here independently.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from collections.abc import Iterator
+from typing import Any
+
+START = 0x7E
+ESCAPE = 0x7D
+TX64 = 0x00
+TX16 = 0x01
+_V1 = struct.Struct("<BBHIH10f4H4f8H")
+RAD2DEG = 180.0 / math.pi
+MODES = {0: "BOOT", 1: "DISARMED", 2: "ARMED", 3: "FLYING", 4: "FAILSAFE_RC", 5: "FAILSAFE_IMU"}
+
+
+def decode_payload(payload: bytes) -> dict[str, Any] | None:
+    """Version-1 payload -> a flat dict with units in the keys; None if not version 1."""
+    if len(payload) != _V1.size or payload[0] != 1:
+        return None
+    v = _V1.unpack(payload)
+    (_, mode, seq, stf, flags) = v[:5]
+    roll, pitch, yaw, z_hat, vz_hat, z_baro, roll_ref, pitch_ref, yaw_rate_ref, z_ref = v[5:15]
+    pulses = [q / 4.0 for q in v[15:19]]
+    collective, tau_r, tau_p, tau_y = v[19:23]
+    c_last, c_max, c_mean, gaps, skipped, adc_fail, rc_err, tm_drop = v[23:31]
+    return {
+        "seq": seq,
+        "t_s": stf / 10_000.0,
+        "mode": mode,
+        "mode_name": MODES.get(mode, str(mode)),
+        "flags": flags,
+        "roll_deg": roll * RAD2DEG,
+        "pitch_deg": pitch * RAD2DEG,
+        "yaw_deg": yaw * RAD2DEG,
+        "alt_est_m": z_hat,
+        "vz_est_mps": vz_hat,
+        "alt_baro_m": z_baro,
+        "roll_ref_deg": roll_ref * RAD2DEG,
+        "pitch_ref_deg": pitch_ref * RAD2DEG,
+        "yaw_rate_ref_degps": yaw_rate_ref * RAD2DEG,
+        "alt_ref_m": z_ref,
+        "pulses_us": pulses,
+        "collective": collective,
+        "tau_applied_Nm": [tau_r, tau_p, tau_y],
+        "compute_last_us": c_last,
+        "compute_max_us": c_max,
+        "compute_mean_us": c_mean,
+        "imu_gap_samples": gaps,
+        "imu_skipped_samples": skipped,
+        "adc_failed_reads": adc_fail,
+        "rc_errors": rc_err,
+        "telemetry_dropped": tm_drop,
+    }
+
+
+class TelemetryDecoder:
+    """Streaming XBee API parser (AP=1 or AP=2) yielding decoded telemetry payloads."""
+
+    def __init__(self) -> None:
+        self._buf = bytearray()
+        self.frames = 0
+        self.bad_checksums = 0
+        self.unknown_payloads = 0
+
+    def feed(self, data: bytes) -> Iterator[dict[str, Any]]:
+        self._buf += data
+        buf = self._buf
+        while True:
+            start = buf.find(START)
+            if start < 0:
+                buf.clear()
+                return
+            if start:
+                del buf[:start]
+            frame, used = _unescape_frame(buf)
+            if used == 0:
+                return  # incomplete
+            del buf[:used]
+            if frame is None:
+                self.bad_checksums += 1
+                continue
+            self.frames += 1
+            kind = frame[0]
+            if kind == TX16 and len(frame) >= 5:
+                payload = bytes(frame[5:])
+            elif kind == TX64 and len(frame) >= 11:
+                payload = bytes(frame[11:])
+            else:
+                continue
+            decoded = decode_payload(payload)
+            if decoded is None:
+                self.unknown_payloads += 1
+                continue
+            yield decoded
+
+
+def _unescape_frame(buf: bytearray) -> tuple[bytes | None, int]:
+    """Parse one frame at buf[0] == 0x7E. Returns (frame data or None if bad, bytes used);
+    (None, 0) when more bytes are needed. Handles escaping transparently: an escaped
+    stream never contains a raw 0x7D/0x7E inside a frame, an unescaped one rarely does,
+    so 0x7D is treated as an escape only when the frame does not check out unescaped."""
+    plain = _parse(buf, escaped=False)
+    if plain[1] and plain[0] is not None:
+        return plain
+    esc = _parse(buf, escaped=True)
+    if esc[1]:
+        return esc
+    if plain[1]:
+        return plain
+    return None, 0
+
+
+def _parse(buf: bytearray, *, escaped: bool) -> tuple[bytes | None, int]:
+    out = bytearray()
+    i = 1
+    n = len(buf)
+    need = None
+    while True:
+        if i >= n:
+            return None, 0
+        b = buf[i]
+        i += 1
+        if escaped and b == ESCAPE:
+            if i >= n:
+                return None, 0
+            b = buf[i] ^ 0x20
+            i += 1
+        elif b == START:
+            return None, i - 1  # a new frame started: this one was truncated
+        out.append(b)
+        if need is None and len(out) == 2:
+            need = 2 + ((out[0] << 8) | out[1]) + 1
+            if need > 2 + 0x200:
+                return None, 1
+        if need is not None and len(out) == need:
+            data = bytes(out[2:-1])
+            ok = (sum(data) + out[-1]) & 0xFF == 0xFF
+            return (data if ok else None), i
