@@ -79,7 +79,8 @@ class DeviceSet:
         self.xbee_vehicle = XBeeModule(rig.telemetry.vehicle, self.rngs["xbee_vehicle"], name="telemetry")
         self.xbee_ground = XBeeModule(rig.telemetry.ground, self.rngs["xbee_ground"], name="ground")
         self.link = RadioLink(rig.telemetry.link, self.rngs["link"])
-        self.link.connect(self.xbee_vehicle, self.xbee_ground)
+        self.link.attach(self.xbee_vehicle)
+        self.link.attach(self.xbee_ground)
 
         self.by_port: dict[str, ByteDevice] = {
             "imu": self.imu,
@@ -113,6 +114,7 @@ class DeviceSet:
 
     def _receiver(self, name: str, device: ByteDevice, port: Port) -> Callable[[bytes, int], None]:
         is_esc = device is self.maestro
+        is_adc = device is self.adc
 
         def on_data(data: bytes, t_ns: int) -> None:
             device.receive(data, t_ns)
@@ -120,6 +122,8 @@ class DeviceSet:
             if out:
                 port.write(out)
             events = device.take_events()
+            if is_adc:
+                events += self.mcp.take_events()
             if events:
                 self._dispatch(name, events)
                 if is_esc and any(type(e).__name__ == "TargetsSet" for e in events):
@@ -234,6 +238,13 @@ class DeviceSet:
     def finish_tick(self, t_ns: int) -> None:
         """Everything after the barrier: the radio link, slow devices, their outputs."""
         self.link.advance(t_ns)
+        link_events = self.link.take_events()
+        if link_events:
+            self._dispatch("telemetry", link_events)
+        for esc in self.escs:
+            esc_events = esc.take_events()
+            if esc_events:
+                self._dispatch("esc", esc_events)
         for name in ("telemetry", "ground", "esc", "adc"):
             self.by_port[name].advance(t_ns)
             self._flush(name)
