@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -25,6 +26,14 @@ from hil.transport.base import LineSettings, Port
 RNG_STREAMS = ("plant", "imu", "analog", "ppm", "esc", "xbee_vehicle", "xbee_ground", "link", "faults")
 
 EventSink = Callable[[str, DeviceEvent], None]
+
+
+class WireFilter(Protocol):
+    """A fault acting on the bytes of one port (both directions)."""
+
+    def tx(self, data: bytes, t_ns: int) -> bytes: ...
+    def rx(self, data: bytes, t_ns: int) -> bytes: ...
+    def poll(self, t_ns: int) -> bytes: ...
 
 
 @dataclass(frozen=True)
@@ -97,6 +106,10 @@ class DeviceSet:
         self.throttle = (0.0, 0.0, 0.0, 0.0)
         self.on_esc_command: Callable[[int], None] = lambda t_host_ns: None
         self.event_sinks: list[EventSink] = []
+        #: port -> wire-fault filters (hil/faults.py): ``tx(data, t_ns) -> bytes`` on the way
+        #: to the client, ``rx(data, t_ns) -> bytes`` on the way to the device,
+        #: ``poll(t_ns) -> bytes`` releases bytes held back (delay/jitter).
+        self.wire_filters: dict[str, list[WireFilter]] = {}
         self.latency: list[LatencySample] = []
 
     # -- wiring ---------------------------------------------------------------------------------
@@ -117,10 +130,16 @@ class DeviceSet:
         is_adc = device is self.adc
 
         def on_data(data: bytes, t_ns: int) -> None:
+            filters = self.wire_filters.get(name)
+            if filters:
+                for f in filters:
+                    data = f.rx(data, t_ns)
+                if not data:
+                    return
             device.receive(data, t_ns)
             out = device.take_output()
             if out:
-                port.write(out)
+                self.write(name, out)
             events = device.take_events()
             if is_adc:
                 events += self.mcp.take_events()
@@ -143,12 +162,38 @@ class DeviceSet:
             for ev in events:
                 sink(port, ev)
 
+    def _filtered(self, name: str, data: bytes, t_ns: int) -> bytes:
+        filters = self.wire_filters.get(name)
+        if filters:
+            for f in filters:
+                data = f.tx(data, t_ns)
+        return data
+
+    def write(self, name: str, data: bytes) -> int:
+        """Device -> client bytes, through the port's wire-fault filters; returns bytes written."""
+        data = self._filtered(name, data, self.t_ns)
+        port = self.ports.get(name)
+        if data and port is not None:
+            port.write(data)
+            return len(data)
+        return 0
+
+    def _release_held(self, t_ns: int) -> None:
+        """Bytes that wire faults held back (delay, jitter) and whose time has come."""
+        for name, filters in self.wire_filters.items():
+            for i, f in enumerate(filters):
+                late = f.poll(t_ns)
+                for g in filters[i + 1 :]:
+                    late = g.tx(late, t_ns) if late else late
+                port = self.ports.get(name)
+                if late and port is not None:
+                    port.write(late)
+
     def _flush(self, name: str) -> None:
         device = self.by_port[name]
         out = device.take_output()
-        port = self.ports.get(name)
-        if out and port is not None:
-            port.write(out)
+        if out:
+            self.write(name, out)
         events = device.take_events()
         if events:
             self._dispatch(name, events)
@@ -197,7 +242,7 @@ class DeviceSet:
         if edges:
             self.rc.feed_edges(edges)
         self.rc.advance(t_ns)
-        out = self.rc.take_output()
+        out = self._filtered("rc", self.rc.take_output(), t_ns)
         port = self.ports.get("rc")
         if out and port is not None:
             await port.write_confirmed(out)
@@ -223,9 +268,8 @@ class DeviceSet:
         events = self.imu.take_events()
         emitted = any(type(e).__name__ == "SampleSent" for e in events)
         if out:
-            port = self.ports.get("imu")
-            if port is not None:
-                port.write(out)
+            written = self.write("imu", out)
+            emitted = emitted and written > 0
         if events:
             self._dispatch("imu", events)
         period = self.imu.output_period_ns
@@ -237,6 +281,8 @@ class DeviceSet:
 
     def finish_tick(self, t_ns: int) -> None:
         """Everything after the barrier: the radio link, slow devices, their outputs."""
+        if self.wire_filters:
+            self._release_held(t_ns)
         self.link.advance(t_ns)
         link_events = self.link.take_events()
         if link_events:
