@@ -1,7 +1,7 @@
 """Telemetry downlink payload (format version 1) and the loop's compute-time window.
 
 One payload per telemetry frame (50 Hz: every 8th 400 Hz sample), carried in an XBee TX16
-frame. 88 bytes, little-endian, fixed layout; docs/telemetry.md documents it byte by byte
+frame. 90 bytes, little-endian, fixed layout; docs/telemetry.md documents it byte by byte
 (the bench decodes it from that page, independently of this module). A new layout gets a
 new ``version`` byte; decoders must check it first.
 
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from enum import IntFlag, unique
 
 VERSION = 1
-_LAYOUT = struct.Struct("<BBHIH10f4H4f7H")
+_LAYOUT = struct.Struct("<BBHIH10f4H4f8H")
 #: Payload length in bytes (<= 100, the 802.15.4 RF payload limit).
 PAYLOAD_LEN = _LAYOUT.size
 _U16_MAX = 0xFFFF

@@ -201,46 +201,79 @@ class XbusParser:
             total = 5 + n
         return max(1, total - len(buf))
 
+    def _frame_at(self, i: int) -> tuple[int, int] | int:
+        """Frame starting at ``buf[i]``: (header length, total length) if complete and valid,
+        0 if more bytes are needed, -1 if it cannot be a frame (bad length or checksum)."""
+        buf = self._buf
+        avail = len(buf) - i
+        if avail < 4:
+            return 0
+        n = buf[i + 3]
+        head = 4
+        if n == EXTENDED_LEN:
+            if avail < 6:
+                return 0
+            n = (buf[i + 4] << 8) | buf[i + 5]
+            head = 6
+        if n > self.max_payload:
+            return -1
+        total = head + n + 1
+        if avail < total:
+            return 0
+        if sum(memoryview(buf)[i + 1 : i + total]) & 0xFF:
+            return -2
+        return head, total
+
     def feed(self, data: bytes) -> list[XbusMessage]:
-        """Add received bytes; return every complete, checksum-valid message in order."""
+        """Add received bytes; return every complete, checksum-valid message in order.
+
+        A header that claims more bytes than have arrived is not trusted blindly: if a
+        complete, valid frame already sits behind it, the header was garbage and is skipped
+        (otherwise a stray ``FA FF`` with a long length would swallow the stream).
+        """
         buf = self._buf
         buf += data
         out: list[XbusMessage] = []
-        while buf:
-            start = buf.find(b"\xfa\xff")
+        start = 0
+        while True:
+            start = buf.find(b"\xfa\xff", start)
             if start < 0:
                 # Keep a trailing 0xFA: it may be the first half of the next preamble.
-                keep = 1 if buf[-1] == PREAMBLE else 0
+                keep = 1 if buf and buf[-1] == PREAMBLE else 0
                 self.counters["garbage_bytes"] += len(buf) - keep
                 del buf[: len(buf) - keep]
                 break
             if start:
                 self.counters["garbage_bytes"] += start
                 del buf[:start]
-            if len(buf) < 4:
-                break
-            n = buf[3]
-            head = 4
-            if n == EXTENDED_LEN:
-                if len(buf) < 6:
+                start = 0
+            found = self._frame_at(0)
+            if found == 0:
+                later = self._later_frame()
+                if later is None:
                     break
-                n = (buf[4] << 8) | buf[5]
-                head = 6
-            if n > self.max_payload:
-                self.counters["bad_length"] += 1
-                del buf[:1]
+                self.counters["garbage_bytes"] += later
+                del buf[:later]
                 continue
-            total = head + n + 1
-            if len(buf) < total:
-                break
-            if sum(memoryview(buf)[1:total]) & 0xFF:
-                self.counters["checksum_errors"] += 1
-                del buf[:1]
+            if isinstance(found, int):
+                self.counters["bad_length" if found == -1 else "checksum_errors"] += 1
+                start = 1
                 continue
-            out.append(XbusMessage(buf[2], bytes(buf[head : head + n])))
+            head, total = found
+            out.append(XbusMessage(buf[2], bytes(buf[head : total - 1])))
             self.counters["frames"] += 1
             del buf[:total]
         return out
+
+    def _later_frame(self) -> int | None:
+        """Offset of the first complete, valid frame after position 0, if any."""
+        buf = self._buf
+        j = buf.find(b"\xfa\xff", 1)
+        while j > 0:
+            if isinstance(self._frame_at(j), tuple):
+                return j
+            j = buf.find(b"\xfa\xff", j + 1)
+        return None
 
 
 @dataclass(frozen=True)
@@ -289,27 +322,37 @@ def _vec3(data: bytes, precision: int) -> tuple[float, float, float] | None:
     return (vals[0], vals[1], vals[2])
 
 
+def mtdata2_packets(payload: bytes) -> list[tuple[int, bytes]] | None:
+    """Split an MTData2 payload into (XDI, data) packets; None if a packet overruns the payload."""
+    packets = []
+    off, end = 0, len(payload)
+    while off + 3 <= end:
+        xdi, size = struct.unpack_from(">HB", payload, off)
+        if off + 3 + size > end:
+            return None
+        packets.append((xdi, payload[off + 3 : off + 3 + size]))
+        off += 3 + size
+    return packets if off == end else None
+
+
 def decode_mtdata2(payload: bytes, counters: Counter[str]) -> XsensData | None:
     """Decode an MTData2 payload; None (counted) unless every item the loop needs is present.
 
     Needed: PacketCounter, SampleTimeFine, EulerAngles, RateOfTurn, Acceleration; StatusWord
     is optional (0 when absent). Unknown XDIs are skipped, malformed packets counted.
     """
+    packets = mtdata2_packets(payload)
+    if packets is None:
+        counters["mtdata2_truncated"] += 1
+        return None
     counter = stf = None
     euler = gyr = acc = None
     status = 0
-    off, end = 0, len(payload)
-    while off + 3 <= end:
-        xdi, size = struct.unpack_from(">HB", payload, off)
-        data = payload[off + 3 : off + 3 + size]
-        off += 3 + size
-        if len(data) != size:
-            counters["mtdata2_truncated"] += 1
-            return None
+    for xdi, data in packets:
         kind, precision = xdi & 0xFFF0, xdi & 0x3
-        if kind == Xdi.PACKET_COUNTER and size == 2:
+        if kind == Xdi.PACKET_COUNTER and len(data) == 2:
             counter = (data[0] << 8) | data[1]
-        elif kind == Xdi.SAMPLE_TIME_FINE and size == 4:
+        elif kind == Xdi.SAMPLE_TIME_FINE and len(data) == 4:
             stf = struct.unpack(">I", data)[0]
         elif kind == Xdi.EULER_ANGLES:
             euler = _vec3(data, precision)
@@ -317,11 +360,8 @@ def decode_mtdata2(payload: bytes, counters: Counter[str]) -> XsensData | None:
             gyr = _vec3(data, precision)
         elif kind == Xdi.ACCELERATION:
             acc = _vec3(data, precision)
-        elif kind == Xdi.STATUS_WORD and size == 4:
+        elif kind == Xdi.STATUS_WORD and len(data) == 4:
             status = struct.unpack(">I", data)[0]
-    if off != end:
-        counters["mtdata2_truncated"] += 1
-        return None
     if counter is None or stf is None or euler is None or gyr is None or acc is None:
         counters["mtdata2_incomplete"] += 1
         return None

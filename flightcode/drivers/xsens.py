@@ -253,8 +253,14 @@ class XsensDriver:
                 if data is not None:
                     skipped += newest is not None
                     newest = data
-            if newest is None and (not chunk or time.monotonic() >= deadline):
-                return None
+            if newest is None:
+                if not chunk:
+                    return None  # the port's read timeout passed in silence
+                now = time.monotonic()
+                # Past the deadline, finish only what is already queued; a babbling device
+                # (bytes, never a valid sample) still trips the watchdog by the hard limit.
+                if now >= deadline and (now >= deadline + timeout_s or not port.in_waiting):
+                    return None
         if skipped:
             self.counters["skipped_samples"] += skipped
         return self._to_sample(newest, skipped)

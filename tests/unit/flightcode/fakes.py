@@ -1,0 +1,470 @@
+"""In-process fakes for the flight-code tests: pyserial-like ports driven by scripted devices.
+
+Written from the wire documentation (research/protocols.md, docs/rc-capture-format.md), not
+from the flight code's own encoders, so a test that passes means the two agree.
+
+:class:`FakeSerial` implements the calls the drivers make (``read``, ``write``,
+``in_waiting``, ``out_waiting``, ``reset_input_buffer``, ``close``). A device attached to it
+answers writes at once; reading the IMU port with nothing queued advances the whole
+:class:`FakeWorld` by one 2.5 ms tick (plant step, RC edges, IMU sample) - the lockstep the
+bench runs, in one process.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+TICK_NS = 2_500_000
+G = 9.80665
+
+
+# -- the port ----------------------------------------------------------------------------------
+class FakeSerial:
+    """A pyserial-like port. ``device.on_write(data)`` answers; ``on_starve`` runs when a read finds too little."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.rx = bytearray()
+        self.written: list[bytes] = []
+        self.on_write: Callable[[bytes], None] = lambda data: None
+        self.on_starve: Callable[[], None] = lambda: None
+        self.out_waiting = 0
+        self.accept_limit: int | None = None  # write accepts at most this many bytes (short writes)
+        self.closed = False
+        self.reads = 0
+
+    @property
+    def in_waiting(self) -> int:
+        return len(self.rx)
+
+    def feed(self, data: bytes) -> None:
+        self.rx += data
+
+    def read(self, size: int = 1) -> bytes:
+        self.reads += 1
+        if len(self.rx) < size:
+            self.on_starve()
+        out = bytes(self.rx[:size])
+        del self.rx[:size]
+        return out
+
+    def write(self, data: bytes) -> int:
+        data = bytes(data)
+        if self.accept_limit is not None:
+            data = data[: self.accept_limit]
+        self.written.append(data)
+        self.on_write(data)
+        return len(data)
+
+    def reset_input_buffer(self) -> None:
+        self.rx.clear()
+
+    def close(self) -> None:
+        self.closed = True
+
+
+# -- XSENS -------------------------------------------------------------------------------------
+def xbus(mid: int, payload: bytes = b"") -> bytes:
+    """Xbus frame (protocols.md 1.2): FA FF MID LEN DATA CS, bytes after FA sum to 0."""
+    body = bytes((0xFF, mid, len(payload))) + payload
+    return b"\xfa" + body + bytes(((-sum(body)) & 0xFF,))
+
+
+class FakeXsens:
+    """A mk4 (MTData2) or legacy (MTData) MTi: config state machine and the sample stream."""
+
+    def __init__(self, port: FakeSerial, legacy: bool = False, device_id: int = 0x037003F8) -> None:
+        self.port = port
+        self.legacy = legacy
+        self.device_id = device_id
+        self.measuring = False
+        self.silent = False  # fault: answers nothing at all
+        self.refuse: set[int] = set()  # MIDs answered with Error 0x04
+        self.output_config: bytes = b""
+        self.counter = 0
+        self.requests: list[int] = []
+        self._buf = bytearray()
+        port.on_write = self._on_write
+
+    def _on_write(self, data: bytes) -> None:
+        self._buf += data
+        while True:
+            i = self._buf.find(b"\xfa\xff")
+            if i < 0 or len(self._buf) < i + 5:
+                return
+            n = self._buf[i + 3]
+            if len(self._buf) < i + 5 + n:
+                return
+            frame = bytes(self._buf[i : i + 5 + n])
+            del self._buf[: i + 5 + n]
+            if sum(frame[1:]) & 0xFF == 0:
+                self._handle(frame[2], frame[4:-1])
+
+    def _handle(self, mid: int, payload: bytes) -> None:
+        self.requests.append(mid)
+        if self.silent:
+            return
+        if mid in self.refuse:
+            self.port.feed(xbus(0x42, b"\x04"))
+            return
+        if mid == 0x30:
+            self.measuring = False
+            self.port.feed(xbus(0x31))
+        elif mid == 0x00:
+            self.port.feed(xbus(0x01, self.device_id.to_bytes(4, "big")))
+        elif mid == 0x1C:
+            self.port.feed(xbus(0x1D, b"MTi-28A53G35" if self.legacy else b"MTi-100-2A8G4       "))
+        elif mid == 0x12:
+            self.port.feed(xbus(0x13, bytes((2, 4, 6) if self.legacy else (1, 8, 2))))
+        elif mid == 0xC0 and not self.legacy:
+            self.output_config = payload
+            self.port.feed(xbus(0xC1, payload))
+        elif mid in (0xD0, 0xD2, 0x04) and self.legacy:
+            self.port.feed(xbus(mid + 1))
+        elif mid == 0x10:
+            self.port.feed(xbus(0x11))
+            self.measuring = True
+        else:
+            self.port.feed(xbus(0x42, b"\x04"))
+
+    def sample(self, t_ns: int, euler_deg: tuple[float, float, float], gyr: tuple[float, float, float],
+               acc: tuple[float, float, float], status: int = 0x00000003) -> bytes:
+        """The sample frame for sim time ``t_ns`` (SampleTimeFine = t / 100 us + 1000 offset)."""
+        self.counter = (self.counter + 1) & 0xFFFF
+        if self.legacy:
+            payload = struct.pack(">3f3f3f3fH", *acc, *gyr, 0.5, 0.0, 0.8, *euler_deg, self.counter)
+            return xbus(0x32, payload)
+        stf = (t_ns // 100_000 + 1000) & 0xFFFFFFFF
+        payload = (struct.pack(">HBH", 0x1020, 2, self.counter) + struct.pack(">HBI", 0x1060, 4, stf)
+                   + struct.pack(">HB3f", 0x2034, 12, *euler_deg) + struct.pack(">HB3f", 0x8024, 12, *gyr)
+                   + struct.pack(">HB3f", 0x4024, 12, *acc) + struct.pack(">HBI", 0xE020, 4, status))
+        return xbus(0x36, payload)
+
+
+# -- Bus Pirate + MCP3204 ------------------------------------------------------------------------
+class FakeBusPirate:
+    """Bus Pirate v3 binary mode (protocols.md 7.1) with an MCP3204 on its SPI bus."""
+
+    def __init__(self, port: FakeSerial, codes: Callable[[int], int]) -> None:
+        self.port = port
+        self.codes = codes  # channel -> 12-bit code now
+        self.mode = "terminal"
+        self.zeros = 0
+        self.cs_low = False
+        self.dead = False
+        self.garbage_next: bytes = b""  # fault: these bytes replace the next reply
+        self.transactions = 0
+        self.config_bytes: list[int] = []
+        self._pending = bytearray()
+        port.on_write = self._on_write
+
+    def _reply(self, data: bytes) -> None:
+        if self.garbage_next:
+            data, self.garbage_next = self.garbage_next, b""
+        self.port.feed(data)
+
+    def _on_write(self, data: bytes) -> None:
+        if self.dead:
+            return
+        self._pending += data
+        while self._pending:
+            b = self._pending[0]
+            if self.mode == "terminal":
+                del self._pending[:1]
+                self.zeros = self.zeros + 1 if b == 0 else 0
+                if self.zeros >= 20:
+                    self.mode, self.zeros = "bbio", 0
+                    self._reply(b"BBIO1")
+            elif self.mode == "bbio":
+                del self._pending[:1]
+                if b == 0x00:
+                    self._reply(b"BBIO1")
+                elif b == 0x01:
+                    self.mode = "spi"
+                    self._reply(b"SPI1")
+                else:
+                    self._reply(b"\x00")
+            else:
+                if 0x10 <= b <= 0x1F:
+                    n = (b & 0x0F) + 1
+                    if len(self._pending) < 1 + n:
+                        return
+                    mosi = bytes(self._pending[1 : 1 + n])
+                    del self._pending[: 1 + n]
+                    self._reply(b"\x01" + self._mcp3204(mosi))
+                    continue
+                del self._pending[:1]
+                if b == 0x00:
+                    self.mode = "bbio"
+                    self._reply(b"BBIO1")
+                elif b == 0x01:
+                    self._reply(b"SPI1")
+                elif b in (0x02, 0x03):
+                    self.cs_low = b == 0x02
+                    self._reply(b"\x01")
+                elif b & 0xF0 in (0x40, 0x60, 0x80):
+                    self.config_bytes.append(b)
+                    self._reply(b"\x01")
+                else:
+                    self._reply(b"\x00")
+
+    def _mcp3204(self, mosi: bytes) -> bytes:
+        """Datasheet Fig. 6-1 framing only (what the flight code sends): 06|D2, D1D0<<6, x."""
+        assert self.cs_low, "transfer with CS high"
+        if len(mosi) != 3 or mosi[0] & 0xFC != 0x04:
+            return b"\xff" * len(mosi)
+        channel = ((mosi[0] & 1) << 2) | (mosi[1] >> 6)
+        code = self.codes(channel & 3)
+        self.transactions += 1
+        return bytes((0xFF, (code >> 8) & 0x0F, code & 0xFF))  # byte 0 and bits 7..5 of byte 1 hi-Z
+
+
+# -- RC ------------------------------------------------------------------------------------------
+def crc8_07(data: bytes) -> int:
+    """CRC-8 poly 0x07, init 0 (docs/rc-capture-format.md)."""
+    crc = 0
+    for b in data:
+        crc ^= b
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc
+
+
+def capture_record(seq: int, level: int, t_us: int, overrun: bool = False) -> bytes:
+    body = bytes((seq & 0xFF, level | (2 if overrun else 0), t_us & 0xFF, (t_us >> 8) & 0xFF))
+    return b"\xa5" + body + bytes((crc8_07(body),))
+
+
+def ppm_edges(frame_start_us: int, channels_us: list[float], separator_us: int = 300) -> list[tuple[int, int]]:
+    """(time us, level after) of one idle-high PPM frame: a low separator starts each channel."""
+    edges = []
+    t = frame_start_us
+    for width in channels_us:
+        edges += [(t, 0), (t + separator_us, 1)]
+        t += int(round(width))
+    edges += [(t, 0), (t + separator_us, 1)]  # the last separator; then the sync gap
+    return edges
+
+
+class FakeCaptureRc:
+    """Timer-capture front-end fed from a stick function ``sticks(t_s) -> 8 pulses or None`` (None = no signal)."""
+
+    def __init__(self, port: FakeSerial, sticks: Callable[[float], list[float] | None], frame_us: int = 22_500,
+                 timer_offset_us: int = 0xFF00) -> None:
+        self.port = port
+        self.sticks = sticks
+        self.frame_us = frame_us
+        self.timer_offset_us = timer_offset_us
+        self.seq = 0
+        self._next_frame_us = 0
+        self._edges: list[tuple[int, int]] = []
+
+    def advance(self, t_ns: int) -> None:
+        now_us = t_ns // 1000
+        while self._next_frame_us <= now_us:
+            ch = self.sticks(self._next_frame_us / 1e6)
+            if ch is not None:
+                self._edges += ppm_edges(self._next_frame_us, ch)
+            self._next_frame_us += self.frame_us
+        due = [e for e in self._edges if e[0] <= now_us]
+        self._edges = [e for e in self._edges if e[0] > now_us]
+        out = bytearray()
+        for t_us, level in due:
+            out += capture_record(self.seq, level, t_us + self.timer_offset_us)
+            self.seq = (self.seq + 1) & 0xFF
+        self.port.feed(bytes(out))
+
+
+def sbus_frame(pulses_us: list[float], flags: int = 0) -> bytes:
+    """25-byte SBUS frame; raw = (pulse - 875) / 0.625 (ArduPilot scaling inverted)."""
+    raw = [int(round((p - 875.0) / 0.625)) for p in pulses_us] + [992] * (16 - len(pulses_us))
+    bits = 0
+    for i, value in enumerate(raw):
+        bits |= (value & 0x7FF) << (11 * i)
+    return b"\x0f" + bits.to_bytes(22, "little") + bytes((flags, 0x00))
+
+
+class FakeSbusRc:
+    """PPM-to-SBUS converter: a frame every 14 ms from the same stick function."""
+
+    def __init__(self, port: FakeSerial, sticks: Callable[[float], list[float] | None], period_us: int = 14_000):
+        self.port = port
+        self.sticks = sticks
+        self.period_us = period_us
+        self._next_us = 0
+
+    def advance(self, t_ns: int) -> None:
+        while self._next_us <= t_ns // 1000:
+            ch = self.sticks(self._next_us / 1e6)
+            self.port.feed(sbus_frame(ch) if ch is not None else sbus_frame([1500.0] * 8, flags=0x0C))
+            self._next_us += self.period_us
+
+
+# -- Maestro and XBee ------------------------------------------------------------------------------
+class FakeMaestro:
+    """Decodes compact Set Multiple Targets (0x9F n first (lo hi)*n) into pulses in us."""
+
+    def __init__(self, port: FakeSerial) -> None:
+        self.pulses_us = [0.0] * 4
+        self.commands = 0
+        self.bad = 0
+        port.on_write = self._on_write
+
+    def _on_write(self, data: bytes) -> None:
+        if len(data) < 3 or data[0] != 0x9F or len(data) != 3 + 2 * data[1]:
+            self.bad += 1
+            return
+        n, first = data[1], data[2]
+        for i in range(n):
+            self.pulses_us[first + i] = (data[3 + 2 * i] | (data[4 + 2 * i] << 7)) / 4.0
+        self.commands += 1
+
+
+def xbee_frames(stream: bytes, escaped: bool) -> list[bytes]:
+    """API frame data from a byte stream (protocols.md 8.2), checking every checksum.
+
+    AP=2: unescape after each 0x7E (a 0x7E inside is always escaped); AP=1: walk the stream
+    by the length fields (a 0x7E may appear inside a frame).
+    """
+    frames = []
+    if escaped:
+        parts = stream.split(b"\x7e")
+        assert parts[0] == b"", "bytes before the first start delimiter"
+        bodies = []
+        for part in parts[1:]:
+            raw, i = bytearray(), 0
+            while i < len(part):
+                if part[i] == 0x7D:
+                    raw.append(part[i + 1] ^ 0x20)
+                    i += 2
+                else:
+                    raw.append(part[i])
+                    i += 1
+            bodies.append(bytes(raw))
+    else:
+        bodies, i = [], 0
+        while i < len(stream):
+            assert stream[i] == 0x7E, f"no start delimiter at offset {i}"
+            n = (stream[i + 1] << 8) | stream[i + 2]
+            bodies.append(stream[i + 1 : i + 4 + n])
+            i += 4 + n
+    for body in bodies:
+        n = (body[0] << 8) | body[1]
+        assert len(body) == n + 3, "frame length field disagrees with the bytes"
+        data, cs = body[2 : 2 + n], body[2 + n]
+        assert (sum(data) + cs) & 0xFF == 0xFF, "bad API checksum"
+        frames.append(bytes(data))
+    return frames
+
+
+# -- the world -------------------------------------------------------------------------------------
+@dataclass
+class PlantState:
+    """Small-angle rigid body on a flat ground (FRD body, z up for altitude)."""
+
+    z_m: float = 0.0
+    vz_mps: float = 0.0
+    euler_rad: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    omega_radps: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+class FakeWorld:
+    """The paper's quad on all five fake ports, stepped one tick per IMU read.
+
+    Motor layout and signs are the shared flight-code conventions (X frame, arm 0.25 m,
+    motors 0 FR CCW, 1 RL CCW, 2 FL CW, 3 RR CW; CCW reaction torque = +yaw). Thrust
+    F = 5.15 N * d^2 with d = (pulse - 1000) / 1000; rotational dynamics use body rates
+    directly as Euler rates (small angles).
+    """
+
+    J = (0.0153, 0.0153, 0.026)
+    M_KG = 1.1
+    F_MAX_MOTOR_N = 20.6 / 4
+    KQ_OVER_KT_M = 0.016
+    FIELD_ALT_M = 50.0
+
+    def __init__(self, sticks: Callable[[float], list[float] | None], *, legacy_imu: bool = False,
+                 rc_frontend: str = "capture", seed: int = 1) -> None:
+        self.ports = {name: FakeSerial(name) for name in ("imu", "adc", "rc", "esc", "telemetry")}
+        self.rng = np.random.default_rng(seed)
+        self.imu = FakeXsens(self.ports["imu"], legacy=legacy_imu)
+        self.adc = FakeBusPirate(self.ports["adc"], self._adc_code)
+        self.rc = (FakeCaptureRc(self.ports["rc"], sticks) if rc_frontend == "capture"
+                   else FakeSbusRc(self.ports["rc"], sticks))
+        self.esc = FakeMaestro(self.ports["esc"])
+        self.plant = PlantState()
+        self.k = -1  # index of the last emitted tick
+        self.imu_silent_ticks: set[int] = set()
+        self.trace: list[tuple[int, float, list[float], list[float]]] = []
+        self.ports["imu"].on_starve = self._tick
+
+    @property
+    def t_ns(self) -> int:
+        return max(self.k, 0) * TICK_NS
+
+    def thrusts_N(self) -> list[float]:
+        out = []
+        for pulse in self.esc.pulses_us:
+            d = min(1.0, max(0.0, (pulse - 1000.0) / 1000.0))
+            out.append(self.F_MAX_MOTOR_N * d * d)
+        return out
+
+    def _specific_force_B(self) -> tuple[float, float, float]:
+        thrust = sum(self.thrusts_N())
+        if self.plant.z_m <= 0.0 and thrust < self.M_KG * G:
+            phi, theta = self.plant.euler_rad[0], self.plant.euler_rad[1]
+            # at rest on the ground: f = -g_N in body axes
+            return (G * math.sin(theta), -G * math.sin(phi) * math.cos(theta), -G * math.cos(phi) * math.cos(theta))
+        return (0.0, 0.0, -thrust / self.M_KG)
+
+    def _step_plant(self, dt: float) -> None:
+        p = self.plant
+        f = self.thrusts_N()
+        l = 0.25 / math.sqrt(2.0)
+        xy = ((l, l, 1), (-l, -l, 1), (l, -l, -1), (-l, l, -1))
+        tau = (sum(-y * fi for (x, y, s), fi in zip(xy, f)), sum(x * fi for (x, y, s), fi in zip(xy, f)),
+               sum(self.KQ_OVER_KT_M * s * fi for (x, y, s), fi in zip(xy, f)))
+        on_ground = p.z_m <= 0.0 and sum(f) * math.cos(p.euler_rad[0]) * math.cos(p.euler_rad[1]) < self.M_KG * G
+        for i in range(3):
+            if on_ground and i < 2:
+                p.omega_radps[i] = 0.0  # the legs keep it level on the ground
+                continue
+            p.omega_radps[i] += tau[i] / self.J[i] * dt
+            p.euler_rad[i] += p.omega_radps[i] * dt
+        az = sum(f) * math.cos(p.euler_rad[0]) * math.cos(p.euler_rad[1]) / self.M_KG - G
+        p.vz_mps += az * dt
+        p.z_m += p.vz_mps * dt
+        if p.z_m <= 0.0:
+            p.z_m, p.vz_mps = 0.0, max(0.0, p.vz_mps)
+
+    def _adc_code(self, channel: int) -> int:
+        if channel == 0:
+            h = self.FIELD_ALT_M + self.plant.z_m
+            p_kpa = 101.325 * (1.0 - 2.25577e-5 * h) ** 5.25588
+            v = 5.0 * (0.009 * p_kpa - 0.095)
+            v_adc = 16.0 * (v - 3.9) + self.rng.normal(0.0, 0.0005)
+        else:
+            f = self._specific_force_B()[channel - 1]
+            v_adc = 3.3 * (0.5 + 0.1 * f / G) + self.rng.normal(0.0, 0.0005)
+        return min(4095, max(0, int(math.floor(4096.0 * v_adc / 5.0))))
+
+    def _tick(self) -> None:
+        """Advance to the next tick and emit its IMU sample (unless silenced)."""
+        if not self.imu.measuring:
+            return
+        if self.k >= 0:
+            self._step_plant(TICK_NS * 1e-9)
+        self.k += 1
+        t_ns = self.k * TICK_NS
+        self.rc.advance(t_ns)
+        self.trace.append((t_ns, self.plant.z_m, list(self.plant.euler_rad), list(self.esc.pulses_us)))
+        if self.k in self.imu_silent_ticks:
+            return
+        p = self.plant
+        euler_deg = tuple(math.degrees(a) for a in p.euler_rad)
+        self.ports["imu"].feed(self.imu.sample(t_ns, euler_deg, tuple(p.omega_radps), self._specific_force_B()))
