@@ -257,6 +257,7 @@ class Maestro(ByteDevice):
         p = self.params
         target = int(round(p.neutral_qus + (value - 127) * p.range_qus / 127))
         self._last_valid_ns = self._t_ns
+        self.counters["commands"] += 1
         self.counters["cmd_mini_ssc"] += 1
         self._set_targets(channel, [target])
 
@@ -269,6 +270,7 @@ class Maestro(ByteDevice):
             self._error(ErrorBit.SERIAL_PROTOCOL, f"channel {d[0]} does not exist")
             return
         self._last_valid_ns = self._t_ns
+        self.counters["commands"] += 1
         if cmd is Command.SET_TARGET:
             self._set_targets(d[0], [join14(d[1], d[2])])
         elif cmd is Command.SET_MULTIPLE_TARGETS:

@@ -55,6 +55,7 @@ def test_golden_packets_decoded(mode: str) -> None:
     got = targets(m)
     assert got == [(0, (6000,)), (2, (6000,)), (0, (6000,)), (0, (6000,)), (3, (0, 6000))]
     assert m.pulse_us(0, 0) == 1500.0 and m.pulse_us(3, 0) == 0.0 and m.pulse_us(4, 0) == 1500.0
+    assert m.counters["commands"] == 5
 
 
 def test_builders_produce_golden_bytes() -> None:
