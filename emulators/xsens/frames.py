@@ -60,7 +60,8 @@ def quat_normalize(q: Quat) -> Quat:
     if n == 0.0 or not math.isfinite(n):
         return Q_IDENTITY
     s = (1.0 if q[0] >= 0.0 else -1.0) / n
-    return (q[0] * s, q[1] * s, q[2] * s, q[3] * s)
+    # "+ 0.0" turns -0.0 into 0.0 so exact axes do not go out as 0x80000000
+    return (q[0] * s + 0.0, q[1] * s + 0.0, q[2] * s + 0.0, q[3] * s + 0.0)
 
 
 def rotate(q: Quat, v: Vec3) -> Vec3:
