@@ -8,8 +8,9 @@ interim chain of the ADC notes, to be aligned with docs/analog-chain.md):
 * MPX5100AP (protocols.md 3): ``v_sensor = supply_V (k_per_kPa P_kPa - offset_ratio)`` with
   k_per_kPa = 0.009, offset_ratio = 0.095, supply_V = 5 V; then the offset-and-gain stage
   ``v_adc = gain (v_sensor - offset_V) + ref_V`` (gain 16: 27.1 Pa / 16 = 1.7 Pa, i.e.
-  0.14 m per code near sea level, paper.md 3.4). Default offset_V = 3.9 V puts
-  97.2..104.2 kPa into 0..5 V: sea-level fields in any weather.
+  0.14 m per code near sea level, paper.md 3.4). Default offset_V = 3.834625 V puts a
+  sea-level field (101.325 kPa) at 4.0 V on the ADC pin, as the bench's default rig does:
+  95.8..102.7 kPa fit into 0..5 V, about 470 m of climb and 115 m below the field.
 * Altitude: ISA troposphere (U.S. Standard Atmosphere 1976 layer 0),
   ``h(P) = T0/L (1 - (P/101325)^(R L / g0 M))``, relative to the pressure averaged at boot:
   ``z = h(P) - h(P_boot)`` (m, positive up).
@@ -52,7 +53,7 @@ class BaroChainParams:
     k_per_kPa: float = 0.009
     offset_ratio: float = 0.095
     gain: float = 16.0
-    offset_V: float = 3.9
+    offset_V: float = 3.834625  # 5 V x (0.009 x 101.325 - 0.095) - 4.0 V / 16
     ref_V: float = 0.0
     zero_average_s: float = 1.0
 
@@ -66,8 +67,8 @@ class AccelChainParams:
         zero_g_ratio: zero-g output as a fraction of Vs (0.5).
         sens_ratio_per_g: sensitivity as a fraction of Vs per g (0.1 -> 330 mV/g at 3.3 V).
         mount_B: for body axes x (forward), y (right), z (down): which sensor axis, with sign,
-            measures it, e.g. ("+X", "-Y", "-Z") for a sensor with Y left and Z up. Default:
-            sensor axes aligned with FRD.
+            measures it. Default ("+X", "-Y", "-Z"): the board flat, component side up, sensor
+            X forward (sensor Y points left and Z up, so Z reads +1 g at rest).
     """
 
     __pydantic_config__ = {"extra": "forbid"}
@@ -75,7 +76,7 @@ class AccelChainParams:
     supply_V: float = 3.3
     zero_g_ratio: float = 0.5
     sens_ratio_per_g: float = 0.1
-    mount_B: tuple[str, str, str] = ("+X", "+Y", "+Z")
+    mount_B: tuple[str, str, str] = ("+X", "-Y", "-Z")
 
 
 def parse_mount(mount_B: tuple[str, str, str]) -> tuple[tuple[int, float], ...]:

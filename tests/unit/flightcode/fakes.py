@@ -447,9 +447,10 @@ class FakeWorld:
             h = self.FIELD_ALT_M + self.plant.z_m
             p_kpa = 101.325 * (1.0 - 2.25577e-5 * h) ** 5.25588
             v = 5.0 * (0.009 * p_kpa - 0.095)
-            v_adc = 16.0 * (v - 3.9) + self.rng.normal(0.0, 0.0005)
+            v_adc = 16.0 * (v - 3.834625) + self.rng.normal(0.0, 0.0005)
         else:
-            f = self._specific_force_B()[channel - 1]
+            # ADXL335 flat, component side up: sensor (X, Y, Z) = (x_B, -y_B, -z_B).
+            f = self._specific_force_B()[channel - 1] * (1.0 if channel == 1 else -1.0)
             v_adc = 3.3 * (0.5 + 0.1 * f / G) + self.rng.normal(0.0, 0.0005)
         return min(4095, max(0, int(math.floor(4096.0 * v_adc / 5.0))))
 
