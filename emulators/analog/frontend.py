@@ -1,0 +1,221 @@
+"""The analog chain in front of the MCP3204: sensors, conditioning, pins, faults.
+
+Per sensor signal (baro, accel X/Y/Z): the static transfer (with this unit's errors) is
+held between ``update`` calls and drives the sensor's first-order response (1 ms for the
+MPX5100AP, the output RC for each ADXL335 axis). Per ADC channel: the conditioning RC
+(exact two-stage solution with the sensor stage), sensor noise as an Ornstein-Uhlenbeck
+process (its variance reduced by the RC), the gain stage with its rails, then white
+electrical noise at the pin. ``volts(channel, t_ns)`` is the MCP3204's sampler.
+
+Determinism: all randomness comes from the one ``rng``; the same sequence of calls gives
+the same values. Sensor noise at one instant is shared by repeated samples of that instant;
+electrical noise is drawn afresh for every sample.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from emulators.analog.adxl335 import Adxl335
+from emulators.analog.conditioning import (
+    OuNoise,
+    amplify,
+    filtered_noise,
+    first_order,
+    tau_from_cutoff_s,
+    two_stage,
+)
+from emulators.analog.mpx5100ap import Mpx5100ap
+from emulators.analog.params import G0_MPS2, P_SEA_LEVEL_PA, AnalogParams
+
+SIGNALS = ("baro", "accel_x", "accel_y", "accel_z")
+N_CHANNELS = 4
+
+
+@dataclass(frozen=True)
+class BaroFault:
+    """p_sensed = p * scale + bias_Pa; sensor noise x noise_factor; frozen holds the output."""
+
+    bias_Pa: float = 0.0
+    scale: float = 1.0
+    noise_factor: float = 1.0
+    frozen: bool = False
+
+
+@dataclass(frozen=True)
+class AccelFault:
+    """f_sensed = f_B * scale + bias (body axes, m/s^2); saturate pins each axis to a rail."""
+
+    bias_mps2: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    scale: float = 1.0
+    noise_factor: float = 1.0
+    frozen: bool = False
+    saturate: bool = False
+
+
+class AnalogFrontEnd:
+    """Sensors and conditioning for the four MCP3204 inputs."""
+
+    def __init__(self, params: AnalogParams, rng: np.random.Generator) -> None:
+        self.params = params
+        self.counters: Counter[str] = Counter()
+        self._rng = rng
+        self.baro = Mpx5100ap(params.baro, rng)
+        self.accel = Adxl335(params.accel, rng)
+        self._tau_sensor = (self.baro.tau_s, *self.accel.tau_s)
+        sensor_sigma = (self.baro.noise_V_rms, *self.accel.noise_V_rms)
+        self._sig = [None if s == "none" else SIGNALS.index(s) for s in params.channel_map]
+        self._tau_rc = [tau_from_cutoff_s(c.rc_cutoff_Hz) for c in params.conditioning]
+        self._noise: list[OuNoise] = []
+        for ch, sig in enumerate(self._sig):
+            sigma, tau = (0.0, 0.0) if sig is None else filtered_noise(
+                sensor_sigma[sig], self._tau_sensor[sig], self._tau_rc[ch]
+            )
+            self._noise.append(OuNoise(sigma, tau, rng))
+        self.baro_fault = BaroFault()
+        self.accel_fault = AccelFault()
+        self._stuck: list[float | None] = [None] * N_CHANNELS
+        self._open = [False] * N_CHANNELS
+        self._open_from: list[tuple[int, float] | None] = [None] * N_CHANNELS  # (t_ns, V) drift start
+        self._frozen: list[float | None] = [None] * N_CHANNELS
+        # Until the first update the chain rests at sea level, level, 25 C.
+        self._t_ns: int | None = None
+        self._init_state(self._static(P_SEA_LEVEL_PA, (0.0, 0.0, -G0_MPS2), 25.0))
+
+    # -- dynamics ----------------------------------------------------------------------
+    def update(self, t_ns: int, p_Pa: float, f_B_mps2: Sequence[float], T_C: float) -> None:
+        """Advance to ``t_ns`` with these inputs held since the previous update.
+
+        ``p_Pa`` static pressure at the sensor port, ``f_B_mps2`` specific force in body
+        axes (FRD, m/s^2, (0, 0, -9.81) at rest), ``T_C`` sensor temperature.
+        """
+        u = self._static(p_Pa, f_B_mps2, T_C)
+        if self._t_ns is None:
+            self._init_state(u)
+            self._t_ns = t_ns
+            return
+        if t_ns < self._t_ns:
+            self.counters["update_backwards"] += 1
+            return
+        dt_s = (t_ns - self._t_ns) * 1e-9
+        for ch, sig in enumerate(self._sig):
+            if sig is not None:
+                self._x2[ch] = two_stage(self._x1[sig], self._x2[ch], u[sig], self._tau_sensor[sig], self._tau_rc[ch], dt_s)
+        for sig in range(4):
+            self._x1[sig] = first_order(self._x1[sig], u[sig], self._tau_sensor[sig], dt_s)
+        self._u = u
+        self._t_ns = t_ns
+
+    def volts(self, channel: int, t_ns: int) -> float:
+        """Voltage at ADC input ``channel`` (0..3) at ``t_ns``, noise included."""
+        if not 0 <= channel < N_CHANNELS:
+            self.counters["bad_channel"] += 1
+            return 0.0
+        self.counters["samples"] += 1
+        stuck = self._stuck[channel]
+        if stuck is not None:
+            v = stuck
+        elif self._open[channel] or self._sig[channel] is None:
+            v = self._floating(channel, t_ns)
+        else:
+            cond = self.params.conditioning[channel]
+            v = amplify(self._sensor_V(channel, t_ns), cond)
+            v += cond.noise_V_rms * float(self._rng.standard_normal())
+        return v
+
+    @property
+    def latched_V(self) -> tuple[float, ...]:
+        """Noise-free pin voltages at the last update (for the recorder)."""
+        return tuple(
+            0.0 if sig is None else amplify(self._x2[ch], self.params.conditioning[ch])
+            for ch, sig in enumerate(self._sig)
+        )
+
+    # -- faults --------------------------------------------------------------------------
+    def set_channel_stuck(self, ch: int, volts: float | None) -> None:
+        """Force input ``ch`` to ``volts`` (None releases it)."""
+        self._stuck[ch] = volts
+
+    def set_channel_open(self, ch: int, open: bool) -> None:  # noqa: A002 - the fault's name
+        """Disconnect input ``ch``: from its next sample on it drifts from the connected
+        (noise-free) voltage to the open level."""
+        self._open[ch] = open
+        self._open_from[ch] = None
+
+    def set_baro_fault(
+        self, bias_Pa: float = 0.0, scale: float = 1.0, noise_factor: float = 1.0, frozen: bool = False
+    ) -> None:
+        """Barometer fault, from the next update (frozen: output held from the next sample)."""
+        self.baro_fault = BaroFault(bias_Pa, scale, noise_factor, frozen)
+        self._unfreeze(0, frozen)
+
+    def set_accel_fault(
+        self,
+        bias_mps2: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        scale: float = 1.0,
+        noise_factor: float = 1.0,
+        frozen: bool = False,
+        saturate: bool = False,
+    ) -> None:
+        """Accelerometer fault (all axes), from the next update."""
+        self.accel_fault = AccelFault(tuple(bias_mps2), scale, noise_factor, frozen, saturate)  # type: ignore[arg-type]
+        for sig in (1, 2, 3):
+            self._unfreeze(sig, frozen)
+
+    # -- internals -------------------------------------------------------------------------
+    def _init_state(self, u: list[float]) -> None:
+        self._u = list(u)
+        self._x1 = list(u)
+        self._x2 = [0.0 if sig is None else u[sig] for sig in self._sig]
+
+    def _static(self, p_Pa: float, f_B_mps2: Sequence[float], T_C: float) -> list[float]:
+        bf, af = self.baro_fault, self.accel_fault
+        baro_V = self.baro.static_V(p_Pa * bf.scale + bf.bias_Pa, T_C)
+        f = np.asarray(f_B_mps2, dtype=float) * af.scale + np.asarray(af.bias_mps2, dtype=float)
+        acc_V = self.accel.static_V(f, T_C)
+        if af.saturate:
+            lo, hi = self.accel.swing_V
+            mid = self.params.accel.supply_V / 2.0 + self.accel.zero_g_offset_V
+            acc_V = np.where(acc_V >= mid, hi, lo)
+        return [baro_V, *(float(v) for v in acc_V)]
+
+    def _sensor_V(self, ch: int, t_ns: int) -> float:
+        sig = self._sig[ch]
+        assert sig is not None
+        frozen = self.baro_fault.frozen if sig == 0 else self.accel_fault.frozen
+        if frozen and self._frozen[ch] is not None:
+            return self._frozen[ch]  # type: ignore[return-value]
+        x2 = self._x2[ch]
+        t_state = self._t_ns if self._t_ns is not None else t_ns
+        if t_ns > t_state:  # inputs held since the last update
+            dt_s = (t_ns - t_state) * 1e-9
+            x2 = two_stage(self._x1[sig], x2, self._u[sig], self._tau_sensor[sig], self._tau_rc[ch], dt_s)
+        elif t_ns < t_state:
+            self.counters["sample_before_update"] += 1
+        factor = self.baro_fault.noise_factor if sig == 0 else self.accel_fault.noise_factor
+        v = x2 + self._noise[ch].at(t_ns, factor)
+        if frozen:
+            self._frozen[ch] = v
+        return v
+
+    def _unfreeze(self, sig: int, frozen: bool) -> None:
+        if not frozen:
+            for ch, s in enumerate(self._sig):
+                if s == sig:
+                    self._frozen[ch] = None
+
+    def _floating(self, ch: int, t_ns: int) -> float:
+        p = self.params
+        start = self._open_from[ch]
+        if start is None:
+            start = self._open_from[ch] = (t_ns, self.latched_V[ch])  # the node's voltage when cut
+        t0, v0 = start
+        dt_s = max(0, t_ns - t0) * 1e-9
+        level = p.open_input_level_V
+        v = level + (v0 - level) * (math.exp(-dt_s / p.open_input_tau_s) if p.open_input_tau_s > 0 else 0.0)
+        return v + p.open_input_noise_V_rms * float(self._rng.standard_normal())
