@@ -104,6 +104,7 @@ class DeviceSet:
         self.ports: dict[str, Port] = {}
         self.t_ns = 0
         self.throttle = (0.0, 0.0, 0.0, 0.0)
+        self.sensors = self.plant.sensors()
         self.on_esc_command: Callable[[int], None] = lambda t_host_ns: None
         self.event_sinks: list[EventSink] = []
         #: port -> wire-fault filters (hil/faults.py): ``tx(data, t_ns) -> bytes`` on the way
@@ -234,8 +235,9 @@ class DeviceSet:
         self.t_ns = t_ns
         self.maestro.advance(t_ns)
         self.throttle = tuple(esc.update(t_ns, self.maestro.pulse_us(i, t_ns)) for i, esc in enumerate(self.escs))
-        if t_ns > self.plant.state.t_ns:
+        if t_ns > self.plant.t_ns:
             self.plant.step(t_ns, self.throttle)
+        self.sensors = self.plant.sensors()
 
     async def emit_rc(self, t_ns: int) -> None:
         edges = self.ppm.edges_until(t_ns)
@@ -251,7 +253,7 @@ class DeviceSet:
             self._dispatch("rc", events)
 
     def latch_analog(self, t_ns: int) -> None:
-        s = self.plant.sensors()
+        s = self.sensors
         self.analog.update(t_ns, s.p_static_Pa, s.f_acc_B_mps2, s.air_T_C)
 
     def emit_imu(self, t_ns: int) -> tuple[bool, bool]:
@@ -261,7 +263,7 @@ class DeviceSet:
         if a fault silenced it: the barrier is still awaited so the flight code's IMU-loss
         watchdog shows up in sim time (DESIGN.md §4).
         """
-        s = self.plant.sensors()
+        s = self.sensors
         self.imu.set_motion(s.q_NS, s.omega_S_radps, s.f_S_mps2)
         self.imu.advance(t_ns)
         out = self.imu.take_output()
