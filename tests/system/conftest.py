@@ -1,0 +1,36 @@
+"""Closed-loop runs for the system tests: the real flight code as a subprocess, lockstep."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from hil.bench import Mode
+from hil.rig import load_rig
+from hil.run import RunResult, run_flight_async
+from hil.scenario import load_scenario
+
+
+def explain(result: RunResult) -> str:
+    """A failure message with everything needed to see why a run failed."""
+    lines = [f"end: {result.end_reason.value} {result.message}", f"log: {result.log_path}"]
+    for c in result.criteria:
+        lines.append(f"  {'ok ' if c.passed else 'BAD'} {c.name}: {c.metric}({c.signal}) = {c.value:.4g} {c.bound} {c.detail}")
+    lines.append(f"timing: { {k: round(v, 1) for k, v in result.timing.items()} }")
+    lines += ["flight stderr (last lines):", *("  " + s for s in result.flight_stderr_tail)]
+    return "\n".join(lines)
+
+
+@pytest.fixture
+def fly(tmp_path: Path):
+    """``await fly(scenario, **kwargs)`` -> RunResult, recorded into tmp_path."""
+
+    async def _fly(scenario: str, *, rig: str | None = None, **kwargs) -> RunResult:
+        rig_obj = load_rig(rig)
+        source = rig_obj.scenario_path(scenario)
+        kwargs.setdefault("mode", Mode.LOCKSTEP)
+        kwargs.setdefault("out_dir", tmp_path)
+        return await run_flight_async(rig_obj, load_scenario(source), scenario_source=source, **kwargs)
+
+    return _fly
