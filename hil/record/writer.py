@@ -236,24 +236,42 @@ class Recorder:
         self._close_error: RecordWriteError | None = None
 
     # ---- life cycle ------------------------------------------------------------------------
-    def _transition(self, action: str) -> None:
+    def _check(self, action: str) -> _State:
         nxt = _TRANSITIONS.get((self._state, action))
         if nxt is None:
             raise RuntimeError(f"Recorder: cannot {action} when {self._state.value}")
-        self._state = nxt
+        return nxt
+
+    def _transition(self, action: str) -> None:
+        self._state = self._check(action)
 
     def start(self) -> None:
         """Create ``<path>.part``; write header, ``run`` metadata and attachments; start the writer thread.
 
-        Refuses (FileExistsError) to overwrite an existing ``path`` or ``.part`` file.
+        Refuses (FileExistsError) to overwrite an existing ``path`` or ``.part`` file. If
+        start() fails the recorder stays unstarted (close() is then a no-op).
         """
         with self._lock:
-            self._transition("start")
+            self._check("start")
         if self.path.exists():
             raise FileExistsError(f"{self.path} exists")
         fd = os.open(self.part_path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-        self._sink = _SinkProxy(fd)
-        w = Writer(self._sink, chunk_size=self._chunk_size, compression=CompressionType.ZSTD,  # type: ignore[arg-type]
+        sink = _SinkProxy(fd)
+        try:
+            writer = self._begin_file(sink)
+        except BaseException:
+            os.close(fd)
+            self.part_path.unlink()  # ours (O_EXCL), and holds nothing worth keeping
+            raise
+        self._sink, self._writer = sink, writer
+        self._thread = threading.Thread(target=self._run, name=f"mcap-writer {self.path.name}", daemon=True)
+        with self._lock:
+            self._transition("start")
+        self._thread.start()
+
+    def _begin_file(self, sink: _SinkProxy) -> Writer:
+        """Header, ``run`` metadata, attachments (straight to the OS), then schemas and channels."""
+        w = Writer(sink, chunk_size=self._chunk_size, compression=CompressionType.ZSTD,  # type: ignore[arg-type]
                    enable_crcs=True, enable_data_crcs=False)
         w.start(profile="", library=_LIBRARY)
         run = dict(self._metadata)
@@ -277,9 +295,7 @@ class Recorder:
             self._chunk_bytes += _record_size(Channel(
                 id=route.channel_id, topic=spec.topic, message_encoding=MessageEncoding.JSON,
                 schema_id=schema_ids[spec.schema_name], metadata=meta))
-        self._writer = w
-        self._thread = threading.Thread(target=self._run, name=f"mcap-writer {self.path.name}", daemon=True)
-        self._thread.start()
+        return w
 
     def __enter__(self) -> Recorder:
         if self._state is _State.NEW:

@@ -300,3 +300,19 @@ def test_disk_failure_raises_on_close_and_keeps_the_part_file(tmp_path: Path) ->
     with pytest.raises(RecordWriteError):
         rec.close()  # idempotent, still loud
     assert rec.part_path.exists() and not rec.path.exists()
+
+
+def test_failed_start_leaves_nothing_half_open(tmp_path: Path) -> None:
+    (tmp_path / "r.mcap").write_bytes(b"previous run")
+    rec = _new(tmp_path / "r.mcap")
+    with pytest.raises(FileExistsError):
+        rec.start()
+    with pytest.raises(RuntimeError):
+        rec.log("/hil/events", 0, {"kind": "bench", "name": "x", "detail": ""}, 0)
+    assert rec.close().messages_by_topic == {}
+    bad = Recorder(tmp_path / "a.mcap", run_start_unix_ns=0, metadata={},
+                   attachments=[("rig.toml", "application/toml", b"x")])
+    bad._attachments = [("rig.toml", 7, b"x")]  # type: ignore[list-item]  # fails inside the header writing
+    with pytest.raises(AttributeError):  # int has no .encode()
+        bad.start()
+    assert not (tmp_path / "a.mcap.part").exists()
