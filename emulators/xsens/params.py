@@ -12,6 +12,8 @@ import math
 from dataclasses import dataclass
 from enum import Enum
 
+from emulators.xsens.defs import BAUD_BPS_BY_CODE
+
 
 class Identity(str, Enum):
     """Which device the emulator is."""
@@ -176,8 +178,8 @@ class XsensParams:
     def __post_init__(self) -> None:
         if self.sample_rate_hz <= 0 or 1_000_000_000 % self.sample_rate_hz:
             raise ValueError(f"sample_rate_hz={self.sample_rate_hz} must divide 1e9 ns")
-        if self.baud_bps <= 0:
-            raise ValueError(f"baud_bps={self.baud_bps} must be positive")
+        if self.baud_bps not in BAUD_BPS_BY_CODE.values():
+            raise ValueError(f"baud_bps={self.baud_bps} is not an Xbus rate: {sorted(set(BAUD_BPS_BY_CODE.values()))}")
 
     @property
     def defaults(self) -> IdentityDefaults:
