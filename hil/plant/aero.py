@@ -41,13 +41,14 @@ class GroundEffect:
     def _raw(self, z: float) -> float:
         """The formula's denominator at height z > 0."""
         z2 = 4.0 * z * z
-        return (
+        den: float = (
             1.0
             - self._r2_16 / (z * z)
             - self._r2 * z / (self._d2 + z2) ** 1.5
             - 0.5 * self._r2 * z / (2.0 * self._d2 + z2) ** 1.5
             - 2.0 * self._r2 * self._kb * z / (self._b2 + z2) ** 1.5
         )
+        return den
 
     def _find_cutoff(self) -> float:
         # The gain falls monotonically with height beyond a rotor radius; double then bisect.
@@ -72,7 +73,7 @@ class GroundEffect:
         # Same as _raw(z_m), inlined: this runs in every derivative near the ground.
         z2 = 4.0 * z_m * z_m
         r2 = self._r2
-        den = (
+        den: float = (
             1.0
             - self._r2_16 / (z_m * z_m)
             - r2 * z_m / (self._d2 + z2) ** 1.5

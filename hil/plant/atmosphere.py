@@ -10,8 +10,6 @@ density follows from the ideal gas law.
 
 from __future__ import annotations
 
-import math
-
 from hil.plant.params import EnvironmentParams
 
 #: ISA sea-level constants (U.S. Standard Atmosphere 1976 / ISO 2533).
@@ -36,7 +34,8 @@ ZERO_C_K = 273.15
 def isa_pressure_Pa(h_msl_m: float, qnh_Pa: float = ISA_P0_PA) -> float:
     """Static pressure (Pa) at ``h_msl_m`` metres above mean sea level (clamped to 0..11 km+)."""
     h = min(h_msl_m, TROPOPAUSE_M)
-    return qnh_Pa * (1.0 - ISA_LAPSE_K_PER_M * h / ISA_T0_K) ** ISA_EXPONENT
+    p: float = qnh_Pa * (1.0 - ISA_LAPSE_K_PER_M * h / ISA_T0_K) ** ISA_EXPONENT
+    return p
 
 
 def isa_temperature_K(h_msl_m: float, offset_K: float = 0.0) -> float:

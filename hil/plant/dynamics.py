@@ -94,7 +94,7 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
     ge_gain = k.ge_gain
 
     def derivative(x: Sequence[float], u: Inputs) -> tuple[float, ...]:
-        px, py, pz, vx, vy, vz, qw, qx, qy, qz, wx, wy, wz, o0, o1, o2, o3 = x
+        _, _, pz, vx, vy, vz, qw, qx, qy, qz, wx, wy, wz, o0, o1, o2, o3 = x
         c0, c1, c2, c3, wn, we, wd, sig = u
         # Motor lag, separate time constants up/down.
         d0 = (c0 - o0) * (tu if c0 > o0 else td)
@@ -175,14 +175,15 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
 
 def rk4_step(f: Derivative, x: State, u: Inputs, h: float) -> State:
     """One classical RK4 step of length ``h`` (s); renormalises the quaternion."""
-    # zip without strict=: all vectors are N_STATES long by construction (hot path).
+    # zip without strict= (noqa B905): every vector is N_STATES long by construction, and
+    # this is the hot path.
     hh = 0.5 * h
     k1 = f(x, u)
-    k2 = f([a + hh * b for a, b in zip(x, k1)], u)
-    k3 = f([a + hh * b for a, b in zip(x, k2)], u)
-    k4 = f([a + h * b for a, b in zip(x, k3)], u)
+    k2 = f([a + hh * b for a, b in zip(x, k1)], u)  # noqa: B905
+    k3 = f([a + hh * b for a, b in zip(x, k2)], u)  # noqa: B905
+    k4 = f([a + h * b for a, b in zip(x, k3)], u)  # noqa: B905
     h6 = h / 6.0
-    y = [a + h6 * (b + 2.0 * (c + d) + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4)]
+    y = [a + h6 * (b + 2.0 * (c + d) + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4)]  # noqa: B905
     qw, qx, qy, qz = y[6], y[7], y[8], y[9]
     n = (qw * qw + qx * qx + qy * qy + qz * qz) ** -0.5
     y[6], y[7], y[8], y[9] = qw * n, qx * n, qy * n, qz * n

@@ -66,7 +66,7 @@ def rest(x: list[float], cg_B_m: Vec3) -> None:
 
 def touchdown_record(x: list[float], t_ns: int) -> Touchdown:
     """Describe the contact of state ``x`` (before it is put at rest)."""
-    qw, qx, qy, qz = x[6], x[7], x[8], x[9]
+    qx, qy = x[7], x[8]
     cos_tilt = 1.0 - 2.0 * (qx * qx + qy * qy)
     return Touchdown(
         t_ns=t_ns,

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from enum import Enum, unique
+from enum import StrEnum, unique
 
 #: Standard gravity, m/s^2 (ISO 80000-3; also the ISA g0 of protocols.md section 3).
 G0_MPS2 = 9.80665
@@ -42,7 +42,7 @@ def _finite(values: tuple[float, ...]) -> bool:
 
 
 @unique
-class FrameLayout(str, Enum):
+class FrameLayout(StrEnum):
     """Rotor arrangement. ``"x"``: arms at 45 degrees to the nose; ``"+"``: an arm on the nose."""
 
     X = "x"
@@ -50,7 +50,7 @@ class FrameLayout(str, Enum):
 
 
 @unique
-class GustShape(str, Enum):
+class GustShape(StrEnum):
     """Time profile of a scheduled gust (MIL-F-8785C discrete gust family)."""
 
     #: Full peak from start to start + duration.

@@ -369,7 +369,7 @@ class Plant:
             ground.rest(x, c)
         # The air density is per tick; refresh it for the new height right away.
         self._sigma = self._atmo.density_ratio(ground.origin_height_m(x, c) + self._gear_m)
-        self._u = (*self._u[:7], self._sigma)  # type: ignore[assignment]
+        self._u = (*self._u[:7], self._sigma)
         self._state = None
 
     def set_payload(

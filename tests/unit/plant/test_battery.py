@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import pytest
 
 from hil.plant import BatteryParams
@@ -18,7 +20,7 @@ def test_open_circuit_voltage_follows_the_lipo_curve() -> None:
     assert b.open_circuit_V(0.525) == pytest.approx(3 * (3.84 + 3.85) / 2)
     socs = [i / 100 for i in range(101)]
     volts = [b.open_circuit_V(s) for s in socs]
-    assert all(v1 > v0 for v0, v1 in zip(volts, volts[1:], strict=False))
+    assert all(v1 > v0 for v0, v1 in pairwise(volts))
 
 
 def test_voltage_sags_with_current() -> None:
@@ -26,8 +28,8 @@ def test_voltage_sags_with_current() -> None:
     points = [b.operating_point(p, 0.8) for p in (0.0, 50.0, 100.0, 200.0, 300.0)]
     volts = [v for v, _, _ in points]
     amps = [i for _, i, _ in points]
-    assert all(v1 < v0 for v0, v1 in zip(volts, volts[1:], strict=False))
-    assert all(i1 > i0 for i0, i1 in zip(amps, amps[1:], strict=False))
+    assert all(v1 < v0 for v0, v1 in pairwise(volts))
+    assert all(i1 > i0 for i0, i1 in pairwise(amps))
     for (v, i, limited), p in zip(points, (0.0, 50.0, 100.0, 200.0, 300.0), strict=True):
         assert v == pytest.approx(12.6 - i * 0.04)
         assert (i - 0.5) * v == pytest.approx(p / 0.8)  # motor power delivered
@@ -39,7 +41,7 @@ def test_voltage_sags_with_current() -> None:
 
 def test_power_beyond_the_pack_is_limited() -> None:
     b = Battery(BatteryParams(internal_resistance_ohm=0.5))
-    v, i, limited = b.operating_point(1000.0, 1.0)  # E^2/4R ~ 79 W available
+    v, _, limited = b.operating_point(1000.0, 1.0)  # E^2/4R ~ 79 W available
     assert limited
     assert v == pytest.approx((12.6 - 0.5 * 0.5) / 2 + 0.0, rel=0.05)
 

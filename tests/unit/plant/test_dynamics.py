@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ from hil.plant import BodyParams, FrameLayout, Plant, PlantParams, RotorParams
 from hil.plant.quat import from_euler, to_matrix
 from hil.plant.rotors import rotor_geometry
 
-from .support import G, NO_DRAG, hover_at, make_plant, run
+from .support import NO_DRAG, G, hover_at, make_plant, run
 
 
 def test_hover_throttle_holds_altitude() -> None:
@@ -91,7 +92,9 @@ def test_torque_gives_angular_acceleration_through_the_full_inertia() -> None:
 def test_rotor_gyroscopic_torque() -> None:
     plant = make_plant(aero=NO_DRAG, rotors=RotorParams(rotor_inertia_kgm2=2e-4))
     # CCW pair faster than CW pair: net rotor angular momentum along -z_B (up).
-    plant.set_kinematic_state((0.0, 0.0, -500.0), omega_B_radps=(1.0, 0.5, 0.0), rotor_omega_radps=(700.0,) * 2 + (500.0,) * 2)
+    plant.set_kinematic_state(
+        (0.0, 0.0, -500.0), omega_B_radps=(1.0, 0.5, 0.0), rotor_omega_radps=(700.0, 700.0, 500.0, 500.0)
+    )
     alpha = np.array(plant.accelerations()[1])
     with_gyro = _expected_alpha(plant, with_gyro=True)
     without = _expected_alpha(plant, with_gyro=False)
@@ -166,6 +169,6 @@ def test_rk4_substep_convergence() -> None:
 
     ref = final_state(128)
     errors = [np.linalg.norm(final_state(n) - ref) for n in (1, 2, 4, 8)]
-    ratios = [a / b for a, b in zip(errors, errors[1:], strict=False)]
+    ratios = [a / b for a, b in pairwise(errors)]
     assert all(r > 10.0 for r in ratios), (errors, ratios)  # fourth order: 16 per halving
     assert errors[2] < 1e-6  # the default 4 sub-steps

@@ -9,7 +9,7 @@ import pytest
 
 from hil.plant.quat import from_euler
 
-from .support import G, NO_DRAG, TICK_NS, make_plant, run
+from .support import NO_DRAG, TICK_NS, G, make_plant, run
 
 
 def test_resting_vehicle_stays_exactly_put() -> None:
@@ -67,7 +67,10 @@ def test_landing_never_goes_below_ground_or_explodes(
     plant = make_plant()
     om = plant.hover_rotor_omega_radps()
     plant.set_kinematic_state(
-        (2.0, -1.0, -3.0), v_N_mps=(1.0, 0.5, v_down_mps), q_NB=from_euler(*attitude), omega_B_radps=rates,
+        (2.0, -1.0, -3.0),
+        v_N_mps=(1.0, 0.5, v_down_mps),
+        q_NB=from_euler(*attitude),
+        omega_B_radps=rates,
         rotor_omega_radps=(om,) * 4,
     )
     heights = []

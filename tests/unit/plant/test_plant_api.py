@@ -11,7 +11,7 @@ from hil.plant import Plant, PlantParams, PlantState, SensorMountParams, SensorT
 from hil.plant.bench import measure_tick_cost
 from hil.plant.quat import from_euler, mul, rotate, rotate_inv
 
-from .support import G, NO_DRAG, STIFF_BATTERY, TICK_NS, hover_at, make_plant, run
+from .support import NO_DRAG, STIFF_BATTERY, TICK_NS, G, hover_at, make_plant, run
 
 
 def test_payload_scales_the_hover_throttle_by_sqrt_of_mass() -> None:
