@@ -18,6 +18,19 @@ from pathlib import Path
 
 LineCallback = Callable[[str, str], None]
 
+PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent() -> None:
+    """In the child, before exec: get SIGKILL when the bench dies (even by SIGKILL), so a
+    killed bench never leaves a flight code running on vanished ports."""
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except OSError:
+        pass
+
 
 def expand_command(template: Sequence[str], *, config: Path) -> list[str]:
     """Substitute ``{python}`` and ``{config}`` in the rig's command template."""
@@ -50,6 +63,7 @@ class FlightProcess:
             stderr=asyncio.subprocess.PIPE,
             env=env,
             start_new_session=True,  # Ctrl-C in the terminal reaches the bench only
+            preexec_fn=_die_with_parent,
         )
         assert self.proc.stdout is not None and self.proc.stderr is not None
         self._readers = [
