@@ -264,6 +264,7 @@ class CaptureRcInput:
             return None
         if self._last_rx_ns is not None and t_ns - self._last_rx_ns > self._stale_ns:
             self.decoder.desync()
+            self.decoder.counters["stale_restarts"] += 1
         self._last_rx_ns = t_ns
         new = None
         for rec in self.parser.feed(data):

@@ -116,11 +116,11 @@ class SbusRcInput:
         new = None
         scale, offset = self.params.scale_us, self.params.offset_us
         for frame in self.parser.feed(data):
+            if frame.flags & FLAG_FRAME_LOST:
+                self.counters["frame_lost_flags"] += 1
             if frame.flags & FLAG_FAILSAFE:
                 self.counters["failsafe_frames"] += 1
                 continue
-            if frame.flags & FLAG_FRAME_LOST:
-                self.counters["frame_lost_flags"] += 1
             new = RcFrame(t_ns, tuple(raw * scale + offset for raw in frame.raw))
         if new is not None:
             self.counters["frames"] += 1
