@@ -19,7 +19,6 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -29,6 +28,7 @@ from hil.plant.atmosphere import ZERO_C_K, Atmosphere
 from hil.plant.battery import Battery
 from hil.plant.dynamics import DynamicsConstants, Inputs, make_derivative, rk4_step
 from hil.plant.params import GustShape, PlantParams
+from hil.plant.records import PlantState, SensorTruth
 from hil.plant.rigid_body import MassProperties, base_mass_properties, with_payload
 from hil.plant.rotors import lag_step, rotor_geometry
 from hil.plant.wind import WindModel
@@ -37,46 +37,7 @@ Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
 Four = tuple[float, float, float, float]
 
-
-@dataclass(frozen=True)
-class PlantState:
-    """Truth snapshot. NED world, FRD body; position/velocity of the body origin."""
-
-    t_ns: int
-    p_N_m: Vec3
-    v_N_mps: Vec3
-    q_NB: Quat
-    omega_B_radps: Vec3
-    #: ZYX Euler (roll, pitch, yaw), rad.
-    euler_rpy_rad: Vec3
-    rotor_omega_radps: Four
-    thrust_N: Four
-    battery_V: float
-    battery_soc: float
-    battery_A: float
-    on_ground: bool
-    wind_N_mps: Vec3
-    mass_kg: float
-    #: Altitude of the body origin above its resting height on the field (= -p_N_m[2]).
-    h_m: float
-
-
-@dataclass(frozen=True)
-class SensorTruth:
-    """Physical inputs of the sensors, noise-free (the emulators add their errors).
-
-    ``q_NS``/``omega_S_radps``/``f_S_mps2``: the IMU's orientation (S -> NED), rates and
-    specific force at its location, in its own frame S. ``f_acc_B_mps2``: specific force
-    at the ADXL335, body FRD axes. ``p_static_Pa``: pressure at the barometer port.
-    """
-
-    t_ns: int
-    q_NS: Quat
-    omega_S_radps: Vec3
-    f_S_mps2: Vec3
-    f_acc_B_mps2: Vec3
-    p_static_Pa: float
-    air_T_C: float
+__all__ = ["Plant", "PlantState", "SensorTruth"]
 
 
 class Plant:
@@ -89,8 +50,9 @@ class Plant:
 
     def __init__(self, params: PlantParams, rng: np.random.Generator, *, t0_ns: int = 0) -> None:
         self.params = params
-        #: Counted oddities: throttle_clamped, throttle_nan, liftoffs, touchdowns,
-        #: battery_empty, battery_power_limited.
+        #: Events and oddities: ``throttle_clamped``/``throttle_nan`` (per value cleaned),
+        #: ``liftoffs``, ``touchdowns``, ``battery_empty``/``battery_power_limited`` (per
+        #: tick spent so).
         self.counters: Counter[str] = Counter()
         self._t0_ns = t0_ns
         self._t_ns = t0_ns

@@ -1,0 +1,50 @@
+"""The plant's output records: frozen snapshots handed to the bench, recorder and emulators."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+Four = tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class PlantState:
+    """Truth snapshot. NED world, FRD body; position/velocity of the body origin."""
+
+    t_ns: int
+    p_N_m: Vec3
+    v_N_mps: Vec3
+    q_NB: Quat
+    omega_B_radps: Vec3
+    #: ZYX Euler (roll, pitch, yaw), rad.
+    euler_rpy_rad: Vec3
+    rotor_omega_radps: Four
+    thrust_N: Four
+    battery_V: float
+    battery_soc: float
+    battery_A: float
+    on_ground: bool
+    wind_N_mps: Vec3
+    mass_kg: float
+    #: Altitude of the body origin above its resting height on the field (= -p_N_m[2]).
+    h_m: float
+
+
+@dataclass(frozen=True)
+class SensorTruth:
+    """Physical inputs of the sensors, noise-free (the emulators add their errors).
+
+    ``q_NS``/``omega_S_radps``/``f_S_mps2``: the IMU's orientation (S -> NED), rates and
+    specific force at its location, in its own frame S. ``f_acc_B_mps2``: specific force
+    at the ADXL335, body FRD axes. ``p_static_Pa``: pressure at the barometer port.
+    """
+
+    t_ns: int
+    q_NS: Quat
+    omega_S_radps: Vec3
+    f_S_mps2: Vec3
+    f_acc_B_mps2: Vec3
+    p_static_Pa: float
+    air_T_C: float
