@@ -91,6 +91,7 @@ class TickLoop:
         self.t_ns = -int(boot_timeout_s * 1e9)
         self.k = -1
         self._barrier: asyncio.Future[int] | None = None
+        self._rt_emit: tuple[int, int] | None = None
         devices.on_esc_command = self._esc_command
 
     # -- barrier ------------------------------------------------------------------------------
@@ -99,6 +100,12 @@ class TickLoop:
         fut = self._barrier
         if fut is not None and not fut.done():
             fut.set_result(t_host_ns)
+        elif self._rt_emit is not None:
+            # realtime: the first command after a sample answers that sample
+            t_ns, t_emit = self._rt_emit
+            self._rt_emit = None
+            self.stats.latencies_ns.append(t_host_ns - t_emit)
+            self.devices.note_latency(t_ns, t_emit, t_host_ns)
 
     # -- boot ------------------------------------------------------------------------------------
     async def boot(self) -> None:
@@ -170,7 +177,9 @@ class TickLoop:
                         handle.cancel()
                     self._barrier = None
                 elif emitted:
-                    devices.note_latency(t_ns, t_emit, None, realtime=True)
+                    if self._rt_emit is not None:  # the previous sample got no command
+                        devices.note_latency(self._rt_emit[0], self._rt_emit[1], None)
+                    self._rt_emit = (t_ns, t_emit)
                 after = clock.monotonic_ns()
                 devices.finish_tick(t_ns)
                 if self.after_tick is not None:

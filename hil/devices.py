@@ -278,7 +278,7 @@ class DeviceSet:
         due = bool(self.imu.measuring and period and t_ns % period == 0)
         return emitted, due
 
-    def note_latency(self, t_ns: int, t_emit: int, t_arrival: int | None, realtime: bool = False) -> None:
+    def note_latency(self, t_ns: int, t_emit: int, t_arrival: int | None) -> None:
         self.latency.append(LatencySample(t_ns, t_emit, t_arrival))
 
     def finish_tick(self, t_ns: int) -> None:

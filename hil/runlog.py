@@ -78,6 +78,7 @@ class RunLogger:
         self.fc_lines = 0
         self.telemetry = TelemetryDecoder()
         self._last_cmd_us: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+        self._lat_i = 0
         trace.define(
             "truth",
             {
@@ -186,16 +187,15 @@ class RunLogger:
                 )
             if k % self.pose_divider == 0:
                 self._pose(t_ns, st, t_host)
-            if d.latency:
-                lat = d.latency[-1]
-                if lat.t_ns == t_ns:
+            if len(d.latency) > self._lat_i:
+                for lat in d.latency[self._lat_i :]:
                     arrival = lat.t_arrival_host_ns
                     rec.log(
                         "/hil/timing/tick",
-                        t_ns,
+                        lat.t_ns,
                         {
-                            "k": k,
-                            "t_ns": t_ns,
+                            "k": lat.t_ns // self.rig.tick_ns,
+                            "t_ns": lat.t_ns,
                             "imu_emit_host_ns": lat.t_emit_host_ns,
                             "esc_arrival_host_ns": arrival if arrival is not None else -1,
                             "latency_us": (arrival - lat.t_emit_host_ns) / 1e3 if arrival is not None else -1.0,
@@ -203,6 +203,7 @@ class RunLogger:
                         },
                         t_host,
                     )
+                self._lat_i = len(d.latency)
             if k % self.counters_divider == 0:
                 rec.log("/hil/device/counters", t_ns, {"t_ns": t_ns, "counters": self.counters()}, t_host)
         if self.progress is not None and k % self.progress_divider == 0:

@@ -1,0 +1,89 @@
+"""``hil perf``: benchmarks of the bench on this machine (never assertions in tests).
+
+* plant: the cost of one 2.5 ms tick of the plant (median, p99, us);
+* recording: the cost of one ``log()`` on the tick path and the writer's sustained rate;
+* lockstep: the real-time factor of the full stack (plant, all emulators, the flight code
+  as a subprocess, recording) and the bench's own cost per tick;
+* realtime: the IMU emit-period error (the pacer's lateness) and the flight code's response
+  latency (IMU emitted -> ESC command) p50/p99/max, next to a bare timer loop measured in
+  the same process right before (the floor of this machine).
+
+Numbers are medians over the runs made; machines are shared and noisy, so quote medians
+and ratios, not single values.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import statistics
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from hil import clock
+
+
+@dataclass
+class PerfReport:
+    rows: list[tuple[str, str, str]] = field(default_factory=list)  #: (figure, value, note)
+
+    def add(self, figure: str, value: float, unit: str, note: str = "") -> None:
+        self.rows.append((figure, f"{value:.3g} {unit}".strip(), note))
+
+
+def bare_timer_loop(n: int = 2000, period_ns: int = 2_500_000) -> np.ndarray:
+    """Lateness (us) of the same pacer with no work at all: this machine's floor."""
+
+    async def run() -> list[int]:
+        pacer = clock.RealtimePacer()
+        start = clock.monotonic_ns() + period_ns
+        late = [await pacer.wait(start + k * period_ns) for k in range(n)]
+        pacer.close()
+        return late
+
+    return np.asarray(asyncio.run(run())) / 1e3
+
+
+def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: float = 10.0) -> PerfReport:
+    """Run every benchmark; returns the table rows."""
+    from hil.bench import Mode
+    from hil.plant.bench import measure_tick_cost
+    from hil.record.perf import measure_recording
+    from hil.run import run_flight
+
+    rep = PerfReport()
+    plant = measure_tick_cost(20_000)
+    rep.add("plant tick (median)", plant["median_us"], "us", f"p99 {plant['p99_us']:.3g} us; 2.5 ms budget")
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = measure_recording(Path(tmp))
+        rep.add("record log() call (median)", rec.log_us_median, "us", f"p99 {rec.log_us_p99:.3g} us, on the tick path")
+        rep.add("record writer rate", rec.writer_msgs_per_s, "msg/s", "writer thread, zstd 64 KiB chunks")
+
+        rtfs, costs, lat50, lat99 = [], [], [], []
+        for i in range(lockstep_runs):
+            res = run_flight(None, "hover", mode=Mode.LOCKSTEP, duration_s=lockstep_s, out_dir=Path(tmp) / f"l{i}")
+            rtfs.append(res.timing["rtf"])
+            costs.append(res.timing.get("bench_cost_p50_us", float("nan")))
+            lat50.append(res.timing.get("latency_p50_us", float("nan")))
+            lat99.append(res.timing.get("latency_p99_us", float("nan")))
+        rep.add("lockstep real-time factor (median)", statistics.median(rtfs), "x",
+                f"{lockstep_runs} runs of {lockstep_s:g} s hover, everything recorded; runs: "
+                + ", ".join(f"{r:.2f}" for r in rtfs))
+        rep.add("lockstep bench cost per tick (median)", statistics.median(costs), "us", "excluding the wait for the flight code")
+        rep.add("lockstep flight response p50", statistics.median(lat50), "us", "IMU written -> ESC command read")
+        rep.add("lockstep flight response p99", statistics.median(lat99), "us", "")
+
+        bare = bare_timer_loop()
+        rep.add("bare timer loop lateness p50", float(np.percentile(bare, 50)), "us", "same pacer, no work")
+        rep.add("bare timer loop lateness p99", float(np.percentile(bare, 99)), "us", f"max {bare.max():.3g} us")
+        res = run_flight(None, "hover", mode=Mode.REALTIME, duration_s=realtime_s, out_dir=Path(tmp) / "rt")
+        t = res.timing
+        rep.add("realtime IMU emit lateness p50", t.get("lateness_p50_us", float("nan")), "us", "tick start vs its wall deadline")
+        rep.add("realtime IMU emit lateness p99", t.get("lateness_p99_us", float("nan")), "us",
+                f"max {t.get('lateness_max_us', float('nan')):.3g} us, {t.get('late_ticks', 0):.0f} ticks > 1 ms late")
+        rep.add("realtime flight response p50", t.get("latency_p50_us", float("nan")), "us", "IMU written -> ESC command read")
+        rep.add("realtime flight response p99", t.get("latency_p99_us", float("nan")), "us",
+                f"max {t.get('latency_max_us', float('nan')):.3g} us")
+    return rep
