@@ -22,6 +22,8 @@ from hil.plant.plant import Plant
 from hil.rig import Rig
 from hil.transport.base import LineSettings, Port
 
+GOTO_MEASUREMENT = 0x10  #: Xbus MID
+
 #: Names of the RNG streams, in spawn order (adding one at the end keeps the others).
 RNG_STREAMS = ("plant", "imu", "analog", "ppm", "esc", "xbee_vehicle", "xbee_ground", "link", "faults")
 
@@ -105,6 +107,8 @@ class DeviceSet:
         self.t_ns = 0
         self.throttle = (0.0, 0.0, 0.0, 0.0)
         self.sensors = self.plant.sensors()
+        #: boot ends when the flight code itself has put the XSENS into measurement
+        self.imu_started_by_host = False
         self.on_esc_command: Callable[[int], None] = lambda t_host_ns: None
         self.event_sinks: list[EventSink] = []
         #: port -> wire-fault filters (hil/faults.py): ``tx(data, t_ns) -> bytes`` on the way
@@ -159,6 +163,10 @@ class DeviceSet:
         return on_line
 
     def _dispatch(self, port: str, events: list[DeviceEvent]) -> None:
+        if port == "imu" and not self.imu_started_by_host:
+            for ev in events:
+                if type(ev).__name__ == "CommandHandled" and getattr(ev, "mid", None) == GOTO_MEASUREMENT:
+                    self.imu_started_by_host = True
         for sink in self.event_sinks:
             for ev in events:
                 sink(port, ev)
@@ -220,7 +228,10 @@ class DeviceSet:
 
     def configured(self, name: str) -> tuple[bool, str]:
         if name == "imu":
-            return (self.imu.measuring, f"XSENS in {self.imu.state.name} state, waiting for GoToMeasurement")
+            return (
+                self.imu_started_by_host and self.imu.measuring,
+                f"XSENS in {self.imu.state.name} state, waiting for the flight code's GoToMeasurement",
+            )
         if name == "adc":
             mode = getattr(self.adc, "mode", None)
             ok = mode is not None and getattr(mode, "name", str(mode)).upper().startswith("SPI")

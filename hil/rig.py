@@ -135,6 +135,22 @@ class Rig:
     def flight_config_path(self) -> Path:
         return (self.path.parent / self.flight.config).resolve()
 
+    def device_baud(self, port: str) -> int:
+        """The line rate (bit/s) of the emulated device on ``port``."""
+        if port == "imu":
+            return int(self.imu.baud_bps)
+        if port == "adc":
+            return int(self.adc.buspirate.baud_bps if self.adc.bridge == "buspirate" else self.adc.spidriver.baud_bps)
+        if port == "rc":
+            return int(self.rc.capture.baud if self.rc.frontend == "capture" else self.rc.sbus.baud)
+        if port == "esc":
+            return int(self.esc.maestro.baud)
+        if port in ("telemetry", "ground"):
+            from emulators.xbee.module import bd_to_baud
+
+            return int(bd_to_baud((self.telemetry.vehicle if port == "telemetry" else self.telemetry.ground).bd))
+        raise KeyError(port)
+
     def scenario_path(self, name_or_path: str | Path | None) -> Path:
         return resolve_scenario(name_or_path or self.header.default_scenario, self.path)
 

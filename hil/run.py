@@ -84,7 +84,9 @@ def write_flight_config(rig: Rig, scenario: Scenario, ports: dict[str, PtyPort],
     for name in ("imu", "adc", "rc", "esc", "telemetry"):
         entry = dict(port_table.get(name, {}))
         entry["path"] = ports[name].path
-        entry.setdefault("baud", 115200)
+        # A template that names a baud keeps it (a wrong one is a test of the flight code);
+        # otherwise the device's own line rate from the rig.
+        entry.setdefault("baud", rig.device_baud(name))
         port_table[name] = entry
     config["ports"] = port_table
     path = run_dir / "flight.toml"
