@@ -1,4 +1,4 @@
-"""Parameters of the analog front-end (rig TOML table ``[adc.analog]`` and sub-tables).
+"""Parameters of the analog front-end (rig TOML table ``[analog]`` and sub-tables).
 
 Defaults are the paper's vehicle (research/paper.md §3.4, protocols.md §3-4): an MPX5100AP
 on 5 V behind a x16 offset-and-gain stage into CH0, an ADXL335 on 3.3 V into CH1-3, the

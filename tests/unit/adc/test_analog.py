@@ -294,29 +294,29 @@ def test_unconnected_input_floats() -> None:
 
 # -- rig TOML -----------------------------------------------------------------------------------
 RIG = """
-[adc.analog]
+[analog]
 channel_map = ["baro", "accel_x", "accel_y", "accel_z"]
-[adc.analog.baro]
+[analog.baro]
 supply_V = 5.0
 noise_V_rms = 0.0005
-[adc.analog.accel]
+[analog.accel]
 supply_V = 3.3
 filter_C_uF = [0.1, 0.1, 0.1]
 mount_R_SB = [[1, 0, 0], [0, -1, 0], [0, 0, -1]]
-[[adc.analog.conditioning]]
+[[analog.conditioning]]
 gain = 16.0
 offset_V = 3.834625
 rc_cutoff_Hz = 100.0
-[[adc.analog.conditioning]]
-[[adc.analog.conditioning]]
-[[adc.analog.conditioning]]
+[[analog.conditioning]]
+[[analog.conditioning]]
+[[analog.conditioning]]
 """
 
 
 def test_rig_toml_validates_into_params_and_rejects_unknown_keys() -> None:
-    table = tomllib.loads(RIG)["adc"]["analog"]
-    params = validate(AnalogParams, table, file="rig.toml", section="adc.analog")
+    table = tomllib.loads(RIG)["analog"]
+    params = validate(AnalogParams, table, file="rig.toml", section="analog")
     assert params.conditioning[0].gain == 16.0 and params.conditioning[1] == ConditioningParams()
     assert params.conditioning[0].offset_V == pytest.approx(AnalogParams().conditioning[0].offset_V)
     with pytest.raises(ConfigError, match="gian"):
-        validate(AnalogParams, {"conditioning": [{"gian": 2}] * 4}, file="rig.toml", section="adc.analog")
+        validate(AnalogParams, {"conditioning": [{"gian": 2}] * 4}, file="rig.toml", section="analog")
