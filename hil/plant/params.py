@@ -305,11 +305,12 @@ class SensorMountParams:
     __pydantic_config__ = {"extra": "forbid"}
 
     imu_position_B_m: Vec3 = (0.0, 0.0, -0.03)
-    #: Sensor frame S relative to body, ZYX Euler (roll, pitch, yaw) in degrees:
-    #: v_B = Rz(yaw) Ry(pitch) Rx(roll) v_S. The XSENS sensor frame is x forward, y left,
-    #: z up when mounted upright (a level MTi reads +9.8 m/s^2 on z: research/golden
-    #: captures), i.e. a 180 degree roll from FRD.
-    imu_rotation_BS_rpy_deg: Vec3 = (180.0, 0.0, 0.0)
+    #: The IMU's sensor frame S in its FRD convention (x out of the connector end, y right,
+    #: z down through the base; the contract of emulators/xsens/frames.py, which turns S
+    #: into the device's own x-forward/y-left/z-up frame for ENU/NWU outputs) relative to
+    #: the body, as ZYX Euler (roll, pitch, yaw) in degrees: v_B = Rz(yaw) Ry(pitch) Rx(roll)
+    #: v_S. Zero: mounted upright, facing forward, aligned with the body axes.
+    imu_rotation_BS_rpy_deg: Vec3 = (0.0, 0.0, 0.0)
     #: ADXL335 board; its specific force is reported in body axes.
     accel_position_B_m: Vec3 = (0.03, 0.0, -0.02)
     #: MPX5100AP static port.

@@ -37,7 +37,8 @@ class SensorTruth:
     """Physical inputs of the sensors, noise-free (the emulators add their errors).
 
     ``q_NS``/``omega_S_radps``/``f_S_mps2``: the IMU's orientation (S -> NED), rates and
-    specific force at its location, in its own frame S. ``f_acc_B_mps2``: specific force
+    specific force at its location, in its sensor frame S (FRD convention: z down, so a
+    level IMU at rest reads f_S = (0, 0, -g); see SensorMountParams). ``f_acc_B_mps2``: specific force
     at the ADXL335, body FRD axes. ``p_static_Pa``: pressure at the barometer port.
     """
 

@@ -26,7 +26,7 @@ def test_resting_vehicle_stays_exactly_put() -> None:
             truths.append(plant.sensors())
     assert len({t.f_acc_B_mps2 for t in truths}) == 1  # no jitter in what the sensors see
     assert truths[-1].f_acc_B_mps2 == pytest.approx((0.0, 0.0, -G), abs=1e-12)
-    assert truths[-1].f_S_mps2 == pytest.approx((0.0, 0.0, G), abs=1e-12)  # XSENS: z up
+    assert truths[-1].f_S_mps2 == pytest.approx((0.0, 0.0, -G), abs=1e-12)  # S: FRD convention
     assert plant.state.rotor_omega_radps[0] > 0.4 * plant.omega_max_radps
     assert sum(plant.state.thrust_N) < plant.state.mass_kg * G
     assert plant.counters["liftoffs"] == 0

@@ -124,7 +124,8 @@ def test_specific_force_in_hover_and_tilted_rest() -> None:
     hover_at(plant, 10.0)
     truth = plant.sensors()
     assert truth.f_acc_B_mps2 == pytest.approx((0.0, 0.0, -G), abs=1e-9)
-    assert truth.f_S_mps2 == pytest.approx((0.0, 0.0, G), abs=1e-9)
+    assert truth.f_S_mps2 == pytest.approx((0.0, 0.0, -G), abs=1e-9)
+    assert truth.q_NS == plant.state.q_NB  # default mount: aligned with the body
 
 
 def test_baro_sees_rotor_wash_near_the_ground() -> None:
