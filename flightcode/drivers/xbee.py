@@ -86,23 +86,23 @@ class XbeeApiParser:
         self.counters: Counter[str] = Counter()
         self._raw = bytearray()
 
-    def _unescape(self) -> tuple[bytearray, int]:
-        """Unescaped bytes after the delimiter at raw[0], and raw bytes consumed (a trailing lone 7D kept)."""
+    def _unescape(self) -> tuple[bytearray, bool]:
+        """Unescaped bytes after the delimiter at raw[0], and whether a new 0x7E cut them short."""
         out = bytearray()
         raw, i, n = self._raw, 1, len(self._raw)
         while i < n:
             b = raw[i]
             if b == START:
-                break
-            if self.escaped and b == ESCAPE:
+                return out, True
+            if b == ESCAPE:
                 if i + 1 >= n:
-                    break
+                    break  # the escaped byte has not arrived yet
                 out.append(raw[i + 1] ^ XOR)
                 i += 2
             else:
                 out.append(b)
                 i += 1
-        return out, i
+        return out, False
 
     def feed(self, data: bytes) -> list[bytes]:
         raw = self._raw
@@ -117,14 +117,14 @@ class XbeeApiParser:
             if start:
                 self.counters["garbage_bytes"] += start
                 del raw[:start]
-            body, used = self._unescape() if self.escaped else (raw[1:], len(raw))
+            body, interrupted = self._unescape() if self.escaped else (raw[1:], False)
             n = (body[0] << 8) | body[1] if len(body) >= 2 else MAX_RF_PAYLOAD
             if n > MAX_FRAME_DATA:  # no 802.15.4 frame is this long: a corrupted header
                 self.counters["bad_length"] += 1
                 del raw[:1]
                 continue
             if len(body) < n + 3:
-                if self.escaped and used < len(raw):  # a new 7E interrupted this frame
+                if interrupted:  # a new 7E started before this frame was complete
                     self.counters["truncated_frames"] += 1
                     del raw[:1]
                     continue
