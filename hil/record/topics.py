@@ -14,8 +14,9 @@ or ``oneOf`` numeric constants), so its panels can address every field.
 
 The writer completes payloads according to ``TopicSpec.stamp``:
 
-* ``Stamp.SIM``: ``t_ns`` (sim time, ns) is set from the ``log()`` argument;
-* ``Stamp.TIMING``: ``t_ns`` and ``t_host_ns`` (host CLOCK_MONOTONIC, ns) are set;
+* ``Stamp.SIM``: ``t_ns`` (sim time, ns) is set from the ``log()`` argument unless the payload
+  carries its own (an event's true sim time may differ from the time it is logged at);
+* ``Stamp.TIMING``: ``t_ns`` and ``t_host_ns`` (host CLOCK_MONOTONIC, ns) likewise;
 * ``Stamp.FOXGLOVE``: ``timestamp = {"sec", "nsec"}`` is set to the message's log time
   (Unix time of the sim instant), after the spec's ``defaults``.
 """
@@ -139,17 +140,21 @@ SIM_TRUTH = _message(
     battery_soc=_num("battery state of charge, 0..1"), on_ground=_bool("resting on the ground"),
     wind_N_mps=_vec(3, "wind velocity, NED, m/s"), mass_kg=_num("vehicle mass incl. payload, kg"))
 
-IMU_SAMPLE = _message(
-    "hil.ImuSample", "One XSENS sample as sent on the wire (device output frame and units).",
-    Stamp.SIM,
-    packet_counter=_int("MTData2 PacketCounter", 0), sample_time_fine=_int("SampleTimeFine, 10 kHz ticks", 0),
-    euler_deg=_EULER, rate_radps=_vec(3, "rate of turn, rad/s, sensor frame"),
-    acc_mps2=_vec(3, "acceleration, m/s^2, sensor frame"))
+IMU_SAMPLE = _message(  # emulators.xsens.events.SampleSent; items the message does not carry are omitted
+    "hil.ImuSample", "One XSENS data message as sent on the wire (its output frame and units).",
+    Stamp.SIM, ("packet_counter", "sample_time_fine", "euler_deg", "rate_radps", "acc_mps2"),
+    packet_counter=_int("PacketCounter (MTData2) or the legacy sample counter (MTData)", 0),
+    sample_time_fine=_int("SampleTimeFine, 1e-4 s ticks (MTData2 only)", 0),
+    euler_deg=_vec(3, "Euler angles (roll, pitch, yaw), deg, output frame"),
+    rate_radps=_vec(3, "rate of turn, rad/s, sensor frame"),
+    acc_mps2=_vec(3, "acceleration, m/s^2, sensor frame"), nbytes=_int("bytes of the whole frame", 0))
 
-ADC_CONVERSION = _message(
-    "hil.AdcConversion", "One MCP3204 conversion answered to the flight code.", Stamp.SIM, ("port",),
-    channel=_int("MCP3204 channel 0..3", 0), code=_int("12-bit code 0..4095", 0),
-    volts=_num("input voltage at the ADC pin, V"), port=_str("adc or adc-spidriver"))
+ADC_CONVERSION = _message(  # emulators.mcp3204.device.Mcp3204Conversion
+    "hil.AdcConversion", "One MCP3204 conversion answered to the flight code.", Stamp.SIM,
+    ("single_ended", "vref_V", "port"),
+    channel=_int("channel (single-ended input, or IN+ of the pair) 0..3", 0), code=_int("12-bit code 0..4095", 0),
+    volts=_num("VIN at the sample instant, V"), single_ended=_bool("single-ended (else pseudo-differential)"),
+    vref_V=_num("reference voltage, V"), port=_str("adc or adc-spidriver"))
 
 RC_PULSES = _message(
     "hil.RcPulses", "RC receiver channel pulses of the frame delivered at t_ns.", Stamp.SIM,
@@ -170,13 +175,14 @@ FC_TELEMETRY = _message(
 TICK_TIMING = _message(
     "hil.TickTiming", "Per-tick loop timing.", Stamp.TIMING,
     k=_int("tick index", 0), imu_emit_host_ns=_int("host time the IMU sample was written, ns"),
-    esc_arrival_host_ns=_int("host time the ESC command arrived, ns (0 if missed)"),
-    latency_us=_num("IMU emit -> ESC command arrival, us"), miss=_bool("no command before the deadline"))
+    esc_arrival_host_ns=_int("host time the ESC command arrived, ns (-1 if missed)"),
+    latency_us=_num("IMU emit -> ESC command arrival, us (-1 if missed)"),
+    miss=_bool("no command before the deadline"))
 
 EVENT = _message(
-    "hil.Event", "Scenario and fault events.", Stamp.SIM,
-    kind={"type": "string", "enum": ["scenario", "fault", "bench", "flightcode"], "description": "source"},
-    name=_str("event name"), detail=_str("free text"))
+    "hil.Event", "Scenario, fault, run and device events.", Stamp.SIM,
+    kind=_str("source: scenario, fault, run, device.<port> ..."), name=_str("event name"),
+    detail=_free("event fields (free-form)"))
 
 _CRITERION = {"type": "object", "description": "one criterion (hil.criteria.CriterionResult)",
               "properties": {"name": _str("criterion"), "signal": _str("trace signal"),
@@ -185,12 +191,16 @@ _CRITERION = {"type": "object", "description": "one criterion (hil.criteria.Crit
                              "passed": _bool("passed"), "detail": _str("free text")},
               "required": ["name", "passed"], "additionalProperties": False}
 VERDICT = _message(
-    "hil.Verdict", "Scenario criteria results.", Stamp.SIM,
-    passed=_bool("all criteria passed"), criteria={"type": "array", "items": _CRITERION})
+    "hil.Verdict", "How the run ended and the scenario's criteria results.", Stamp.SIM,
+    ("end_reason", "message", "flight_returncode", "timing"),
+    passed=_bool("the run completed and all criteria passed"), criteria={"type": "array", "items": _CRITERION},
+    end_reason=_str("completed, flight exited, boot failed, interrupted, error ..."),
+    message=_str("why it ended, free text"), flight_returncode=_int("flight code exit status (-1 if unknown)"),
+    timing=_free("loop timing figures (name -> value)"))
 
 DEVICE_COUNTERS = _message(
     "hil.DeviceCounters", "Periodic snapshot of every device's counters.", Stamp.SIM,
-    devices=_free("device name -> {counter name -> count}"))
+    counters=_free("device or port.<name> -> {counter name -> count}"))
 
 # ---- example payloads (docs and tests) ---------------------------------------------------
 _EX_TRUTH = {
@@ -215,10 +225,10 @@ _TABLE: list[TopicSpec] = [
               {"frame_id": "world", "pose": {"position": {"x": -0.2, "y": 0.1, "z": 1.5},
                                              "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}, _P.FOXGLOVE),
     TopicSpec("/hil/imu/sample", "hil.ImuSample", IMU_SAMPLE, "XSENS sample as sent", "deg, rad/s, m/s^2; SampleTimeFine 1e-4 s",
-              {"packet_counter": 17, "sample_time_fine": 42500, "euler_deg": {"roll": 0.5, "pitch": -1.0, "yaw": 90.0},
-               "rate_radps": [0.01, 0.0, -0.02], "acc_mps2": [0.1, -0.05, 9.81]}),
+              {"packet_counter": 17, "sample_time_fine": 42500, "euler_deg": [0.5, -1.0, 90.0],
+               "rate_radps": [0.01, 0.0, -0.02], "acc_mps2": [0.1, -0.05, 9.81], "nbytes": 61}),
     TopicSpec("/hil/adc/conversion", "hil.AdcConversion", ADC_CONVERSION, "MCP3204 conversion", "code 0..4095; V",
-              {"channel": 0, "code": 2048, "volts": 2.5, "port": "adc"}),
+              {"channel": 0, "single_ended": True, "code": 2048, "volts": 2.5, "vref_V": 5.0}),
     TopicSpec("/hil/rc/pulses", "hil.RcPulses", RC_PULSES, "RC pulses delivered", "us",
               {"pulse_us": [1500, 1500, 1100, 1500, 1900, 1100, 1500, 1500], "present": True}),
     TopicSpec("/hil/esc/command", "hil.EscCommand", ESC_COMMAND, "Maestro targets received", "us",
@@ -232,13 +242,15 @@ _TABLE: list[TopicSpec] = [
     TopicSpec("/hil/timing/tick", "hil.TickTiming", TICK_TIMING, "per-tick loop timing", "ns host monotonic; us",
               {"k": 400, "imu_emit_host_ns": 1_000_000_000, "esc_arrival_host_ns": 1_000_180_000,
                "latency_us": 180.0, "miss": False}, _P.TIMING),
-    TopicSpec("/hil/events", "hil.Event", EVENT, "scenario and fault events", "-",
-              {"kind": "fault", "name": "imu_dropout", "detail": "0.5 s"}),
-    TopicSpec("/hil/verdict", "hil.Verdict", VERDICT, "criteria results", "signal units",
-              {"passed": True, "criteria": [{"name": "hover_alt", "signal": "truth.h_m", "metric": "max_abs",
-                                              "value": 0.12, "bound": "<= 0.2", "passed": True, "detail": ""}]}),
+    TopicSpec("/hil/events", "hil.Event", EVENT, "scenario, fault, run and device events", "as in detail",
+              {"kind": "fault", "name": "imu_dropout", "detail": {"duration_s": 0.5}}),
+    TopicSpec("/hil/verdict", "hil.Verdict", VERDICT, "end of run and criteria results", "signal units",
+              {"passed": True, "end_reason": "completed", "message": "", "flight_returncode": 0,
+               "criteria": [{"name": "hover_alt", "signal": "truth.h_m", "metric": "max_abs",
+                             "value": 0.12, "bound": "<= 0.2", "passed": True, "detail": ""}],
+               "timing": {"latency_p99_us": 210.0}}),
     TopicSpec("/hil/device/counters", "hil.DeviceCounters", DEVICE_COUNTERS, "device counters snapshot", "counts",
-              {"devices": {"imu": {"bad_checksum": 0, "messages": 12}, "esc": {"commands": 400}}}),
+              {"counters": {"imu": {"bad_checksum": 0, "messages": 12}, "port.esc": {"bytes_rx": 400}}}),
 ]
 # fmt: on
 

@@ -430,9 +430,9 @@ class Recorder:
                     msg["timestamp"] = {"sec": log_time // 1_000_000_000, "nsec": log_time % 1_000_000_000}
                 else:
                     msg = dict(payload)
-                    msg["t_ns"] = int(t_ns)
+                    msg.setdefault("t_ns", int(t_ns))
                     if spec.stamp is Stamp.TIMING:
-                        msg["t_host_ns"] = int(t_host_ns)
+                        msg.setdefault("t_host_ns", int(t_host_ns))
                 data, nonfinite = _encode(msg)
             except (TypeError, ValueError, AttributeError) as e:  # a payload that is not a JSON object
                 route.unencodable += 1

@@ -43,7 +43,7 @@ def test_read_topic_shapes_and_dtypes(tmp_path: Path) -> None:
     assert log["timestamp.sec"].tolist() == [(RUN_START_NS + k * 2_500_000) // 10**9 for k in range(4)]
     assert log["message"].tolist() == ["armed"] * 4
     counters = read_topic(rec.path, "/hil/device/counters")
-    assert counters["devices.imu.bad_checksum"].tolist() == [0] * 4
+    assert counters["counters.imu.bad_checksum"].tolist() == [0] * 4
     verdict = read_topic(rec.path, "/hil/verdict")
     assert verdict["criteria"].dtype == object and verdict["criteria"][0][0]["name"] == "hover_alt"
 
@@ -63,7 +63,7 @@ def test_ragged_and_missing_fields(tmp_path: Path) -> None:
 def test_empty_and_unknown_topics(tmp_path: Path) -> None:
     rec = Recorder(tmp_path / "r.mcap", run_start_unix_ns=RUN_START_NS, metadata={})
     with rec:
-        rec.log("/hil/events", 0, {"kind": "bench", "name": "x", "detail": ""}, 0)
+        rec.log("/hil/events", 0, {"kind": "bench", "name": "x", "detail": {}}, 0)
     empty = read_topic(rec.path, "/hil/rc/pulses")
     assert list(empty) == ["log_time_ns"] and empty["log_time_ns"].shape == (0,)
     with pytest.raises(KeyError):

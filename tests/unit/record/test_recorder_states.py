@@ -16,7 +16,7 @@ from hil.record import Recorder, RecordStats, iter_messages, message_counts, rea
 from tests.unit.record.support import RUN_START_NS
 
 TOPICS_USED = ["/hil/events", "/hil/adc/conversion"]
-PAYLOADS = {"/hil/events": {"kind": "fault", "name": "f", "detail": "d"},
+PAYLOADS = {"/hil/events": {"kind": "fault", "name": "f", "detail": {"d": 1}},
             "/hil/adc/conversion": {"channel": 2, "code": 100, "volts": 0.12}}
 
 

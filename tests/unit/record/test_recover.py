@@ -46,7 +46,7 @@ CHILD = textwrap.dedent("""
         t_ns = k * 2_500_000
         rec.log_truth(t_ns, truth, k)
         rec.log_wire("imu", "tx", t_ns, k, bytes([k % 256]) * 40)
-        rec.log("/hil/events", t_ns, {{"kind": "bench", "name": "tick", "detail": str(k)}}, k)
+        rec.log("/hil/events", t_ns, {{"kind": "bench", "name": "tick", "detail": {{"k": k}}}}, k)
         k += 1
         if k % 200 == 0:
             # progress: bytes the writer thread has put into the .part file so far
@@ -117,7 +117,7 @@ def test_killed_run_is_recovered(killed_part: Path, tmp_path: Path) -> None:
             if isinstance(rec, Message):
                 seqs.setdefault(rec.channel_id, []).append(rec.sequence)
     assert all(s == list(range(len(s))) for s in seqs.values())
-    details = [int(m["detail"]) for _, _, m in iter_messages(dst, ["/hil/events"])]
+    details = [m["detail"]["k"] for _, _, m in iter_messages(dst, ["/hil/events"])]
     assert details == sorted(details) and len(details) == counts["/hil/events"]
     # /tf and /sim/pose are derived in the same writer step as /sim/truth: a tear splits them by <= 1
     assert 0 <= counts["/sim/truth"] - counts["/sim/pose"] <= 1

@@ -48,7 +48,7 @@ class Blocking(Mapping[str, Any]):
     def __init__(self) -> None:
         self.entered = threading.Event()
         self.release = threading.Event()
-        self._d = {"kind": "bench", "name": "blocker", "detail": ""}
+        self._d = {"kind": "bench", "name": "blocker", "detail": {}}
 
     def keys(self):  # type: ignore[override]  # dict(mapping) calls keys() first
         self.entered.set()
@@ -122,7 +122,7 @@ def test_full_queue_drops_and_counts(tmp_path: Path) -> None:
     rec.log("/hil/events", 0, blocker, 0)  # type: ignore[arg-type]
     assert blocker.entered.wait(30)  # the writer is now stuck inside this message; the queue is empty
     for i in range(12):
-        rec.log("/hil/events", 1 + i, {"kind": "bench", "name": "e", "detail": str(i)}, 0)
+        rec.log("/hil/events", 1 + i, {"kind": "bench", "name": "e", "detail": {"i": i}}, 0)
     rec.log_wire("esc", "rx", 20, 0, b"\x9f")
     assert rec.pending() == 5
     blocker.release.set()
@@ -136,7 +136,7 @@ def test_full_queue_drops_and_counts(tmp_path: Path) -> None:
     assert int(summary["queue_high_water"]) in (5, 6)  # 6 if close()'s stop sentinel was already queued
     assert message_counts(rec.path)["/hil/events"] == 6
     details = [m["detail"] for _, _, m in iter_messages(rec.path, ["/hil/events"])]
-    assert details == ["", "0", "1", "2", "3", "4"]  # the first five after the blocker, in order
+    assert details == [{}, {"i": 0}, {"i": 1}, {"i": 2}, {"i": 3}, {"i": 4}]  # the first five after the blocker, in order
 
 
 def test_per_channel_order_and_log_time_never_goes_back(tmp_path: Path) -> None:
@@ -145,13 +145,13 @@ def test_per_channel_order_and_log_time_never_goes_back(tmp_path: Path) -> None:
     # interleave two channels; /hil/events goes back in sim time once (a bench bug): clamped, counted
     times = [0, 5, 10, 7, 20, 20, 30]
     for i, t in enumerate(times):
-        rec.log("/hil/events", t * 1_000_000, {"kind": "scenario", "name": "e", "detail": str(i)}, i)
+        rec.log("/hil/events", t * 1_000_000, {"kind": "scenario", "name": "e", "detail": {"i": i}}, i)
         rec.log("/hil/timing/tick", (100 - 10 * i) * 1_000_000 if i == 6 else i * 1_000_000,
                 {"k": i, "imu_emit_host_ns": 0, "esc_arrival_host_ns": 0, "latency_us": 0.0, "miss": True}, i)
     stats = rec.close()
     assert stats.clamped_by_topic == {"/hil/events": 1}
     events = list(iter_messages(rec.path, ["/hil/events"]))
-    assert [m["detail"] for _, _, m in events] == [str(i) for i in range(len(times))]
+    assert [m["detail"] for _, _, m in events] == [{"i": i} for i in range(len(times))]
     log_times = [lt - RUN_START_NS for _, lt, _ in events]
     assert log_times == [0, 5_000_000, 10_000_000, 10_000_000, 20_000_000, 20_000_000, 30_000_000]
     assert [m["t_ns"] for _, _, m in events] == [t * 1_000_000 for t in times]  # payload keeps the truth
@@ -202,7 +202,7 @@ def test_unencodable_payload_is_counted_not_fatal(tmp_path: Path) -> None:
     rec.start()
     rec.log("/hil/events", 0, {"kind": "bench", "name": "x", "detail": object()}, 0)  # type: ignore[dict-item]
     rec.log("/hil/events", 1, "not a dict", 0)  # type: ignore[arg-type]
-    rec.log("/hil/events", 2, {"kind": "bench", "name": "ok", "detail": ""}, 0)
+    rec.log("/hil/events", 2, {"kind": "bench", "name": "ok", "detail": {}}, 0)
     stats = rec.close()
     assert stats.dropped == 2 and stats.messages_by_topic["/hil/events"] == 1
     summary = read_metadata(rec.path)["summary"]
@@ -224,10 +224,10 @@ def test_programming_errors_are_loud(tmp_path: Path) -> None:
         rec.start()
     rec.close()
     with pytest.warns(RuntimeWarning):
-        rec.log("/hil/events", 0, {"kind": "bench", "name": "late", "detail": ""}, 0)
+        rec.log("/hil/events", 0, {"kind": "bench", "name": "late", "detail": {}}, 0)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        rec.log("/hil/events", 0, {"kind": "bench", "name": "late", "detail": ""}, 0)  # counted, warned once
+        rec.log("/hil/events", 0, {"kind": "bench", "name": "late", "detail": {}}, 0)  # counted, warned once
     assert rec.dropped_after_close == 2
     with pytest.raises(TypeError):
         Recorder(tmp_path / "x.mcap", run_start_unix_ns=0, metadata={"seed": 7})  # type: ignore[dict-item]
@@ -246,7 +246,7 @@ def test_refuses_to_overwrite(tmp_path: Path) -> None:
 def test_context_manager_and_abort(tmp_path: Path) -> None:
     with pytest.raises(ZeroDivisionError):
         with _new(tmp_path / "r.mcap") as rec:
-            rec.log("/hil/events", 0, {"kind": "bench", "name": "a", "detail": ""}, 0)
+            rec.log("/hil/events", 0, {"kind": "bench", "name": "a", "detail": {}}, 0)
             1 / 0  # noqa: B018
     meta = read_metadata(tmp_path / "r.mcap")
     assert meta["verdict"]["status"] == "aborted" and "ZeroDivisionError" in meta["verdict"]["error"]
@@ -294,7 +294,7 @@ def test_disk_failure_raises_on_close_and_keeps_the_part_file(tmp_path: Path) ->
 
     rec._sink.write = full  # type: ignore[method-assign]
     for k in range(200):
-        rec.log("/hil/events", k, {"kind": "bench", "name": "e", "detail": "x" * 50}, 0)
+        rec.log("/hil/events", k, {"kind": "bench", "name": "e", "detail": {"x": "x" * 50}}, 0)
     with pytest.raises(RecordWriteError):
         rec.close()
     with pytest.raises(RecordWriteError):
@@ -308,7 +308,7 @@ def test_failed_start_leaves_nothing_half_open(tmp_path: Path) -> None:
     with pytest.raises(FileExistsError):
         rec.start()
     with pytest.raises(RuntimeError):
-        rec.log("/hil/events", 0, {"kind": "bench", "name": "x", "detail": ""}, 0)
+        rec.log("/hil/events", 0, {"kind": "bench", "name": "x", "detail": {}}, 0)
     assert rec.close().messages_by_topic == {}
     bad = Recorder(tmp_path / "a.mcap", run_start_unix_ns=0, metadata={},
                    attachments=[("rig.toml", "application/toml", b"x")])
