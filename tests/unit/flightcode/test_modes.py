@@ -1,0 +1,203 @@
+"""Mode machine: gestures, take-off, landing, failsafes; all timers on sensor time."""
+
+from __future__ import annotations
+
+from hypothesis import settings
+from hypothesis import strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, rule
+
+from flightcode.modes import MOTORS, TRANSITIONS, Mode, ModeEvent, ModeMachine, ModesParams, MotorPolicy
+
+TICK = 2_500_000
+S = 1_000_000_000
+
+
+class Pilot:
+    """Drives a ModeMachine tick by tick with stick positions and an altitude estimate."""
+
+    def __init__(self, params: ModesParams = ModesParams(), takeoff_alt_m: float = 0.5) -> None:
+        self.m = ModeMachine(params, takeoff_alt_m)
+        self.t = 0
+        self.rc_valid = True
+        self.throttle, self.yaw = 1000.0, 1500.0
+        self.z_ref = self.z = self.vz = 0.0
+
+    def run(self, seconds: float, **inputs: float) -> Mode:
+        for key, value in inputs.items():
+            setattr(self, key, value)
+        end = self.t + int(seconds * S)
+        while self.t < end:
+            self.m.update(self.t, baro_ready=True, rc_valid=self.rc_valid, throttle_us=self.throttle, yaw_us=self.yaw,
+                          z_ref_m=self.z_ref, z_hat_m=self.z, vz_hat_mps=self.vz)
+            self.t += TICK
+        return self.m.mode
+
+
+def armed_pilot() -> Pilot:
+    p = Pilot()
+    p.run(0.01)
+    assert p.run(1.1, yaw=2000.0) is Mode.ARMED
+    p.run(0.01, yaw=1500.0)
+    return p
+
+
+def flying_pilot() -> Pilot:
+    p = armed_pilot()
+    assert p.run(0.01, throttle=1200.0, z_ref=2.0) is Mode.FLYING
+    p.run(0.5, z=2.0)
+    return p
+
+
+def test_boot_waits_for_the_baro_reference() -> None:
+    m = ModeMachine(ModesParams(), 0.5)
+    assert m.update(0, baro_ready=False, rc_valid=True, throttle_us=1000, yaw_us=1500, z_ref_m=0, z_hat_m=0,
+                    vz_hat_mps=0) is Mode.BOOT
+    assert m.update(TICK, baro_ready=True, rc_valid=True, throttle_us=1000, yaw_us=1500, z_ref_m=0, z_hat_m=0,
+                    vz_hat_mps=0) is Mode.DISARMED
+    assert m.transitions[0].event is ModeEvent.BOOT_DONE and m.transitions[0].t_ns == TICK
+
+
+def test_arm_gesture_needs_one_second_of_sensor_time() -> None:
+    p = Pilot()
+    p.run(0.01)
+    start = p.t
+    p.run(0.99, yaw=1950.0)
+    assert p.m.mode is Mode.DISARMED
+    p.run(0.02)
+    assert p.m.mode is Mode.ARMED
+    tr = p.m.transitions[-1]
+    assert tr.event is ModeEvent.ARM_GESTURE and tr.t_ns - start == 1 * S  # exactly 400 ticks
+
+
+def test_interrupted_gesture_restarts_the_timer() -> None:
+    p = Pilot()
+    p.run(0.8, yaw=2000.0)
+    p.run(0.01, yaw=1500.0)
+    assert p.run(0.8, yaw=2000.0) is Mode.DISARMED
+    assert p.run(0.3, yaw=2000.0) is Mode.ARMED
+
+
+def test_gesture_needs_low_throttle_and_valid_rc() -> None:
+    p = Pilot()
+    assert p.run(2.0, yaw=2000.0, throttle=1100.0) is Mode.DISARMED
+    assert p.run(2.0, yaw=2000.0, throttle=1000.0, rc_valid=False) is Mode.DISARMED
+
+
+def test_disarm_gesture() -> None:
+    p = armed_pilot()
+    assert p.m.motors is MotorPolicy.IDLE
+    assert p.run(1.1, yaw=1000.0) is Mode.DISARMED
+    assert p.m.motors is MotorPolicy.MINIMUM
+
+
+def test_takeoff_landing_and_auto_disarm() -> None:
+    p = flying_pilot()
+    assert p.m.controllers_active
+    assert p.run(2.0, yaw=1000.0) is Mode.FLYING  # the disarm gesture does nothing in the air
+    p.run(1.0, throttle=1000.0, yaw=1500.0, z_ref=0.0)  # setpoint down, still 2 m up
+    assert p.m.mode is Mode.FLYING
+    p.run(0.99, z=0.1, vz=0.0)
+    assert p.m.mode is Mode.FLYING
+    assert p.run(0.02) is Mode.ARMED  # on the ground for landed_s = 1 s
+    assert p.run(4.9) is Mode.ARMED
+    assert p.run(0.2) is Mode.DISARMED  # auto_disarm_s = 5 s
+
+
+def test_rc_loss_in_flight_is_a_latched_failsafe_until_landed() -> None:
+    p = flying_pilot()
+    assert p.run(0.01, rc_valid=False) is Mode.FAILSAFE_RC
+    assert p.m.controllers_active
+    assert p.run(1.0, rc_valid=True) is Mode.FAILSAFE_RC  # RC back: still failsafe
+    p.run(0.5, z_ref=0.0, z=0.05, vz=0.0)
+    assert p.run(1.0) is Mode.DISARMED
+
+
+def test_rc_loss_on_the_ground_disarms() -> None:
+    p = armed_pilot()
+    assert p.run(0.01, rc_valid=False) is Mode.DISARMED
+
+
+def test_imu_loss_and_return() -> None:
+    p = flying_pilot()
+    assert p.m.imu_lost() is Mode.FAILSAFE_IMU
+    assert p.m.motors is MotorPolicy.MINIMUM
+    assert p.m.imu_lost() is Mode.FAILSAFE_IMU
+    assert p.run(0.01) is Mode.DISARMED  # a sample again: disarmed, must re-arm
+
+
+def test_imu_loss_during_boot_keeps_booting() -> None:
+    m = ModeMachine(ModesParams(), 0.5)
+    assert m.imu_lost() is Mode.BOOT
+
+
+def test_tables_cover_every_mode() -> None:
+    assert set(TRANSITIONS) == set(Mode) == set(MOTORS)
+    assert {m for m in Mode if MOTORS[m] is MotorPolicy.CONTROL} == {Mode.FLYING, Mode.FAILSAFE_RC}
+
+
+class ModesMachine(RuleBasedStateMachine):
+    """Random pilots: the table is the only way modes change, gestures really were held."""
+
+    @initialize()
+    def start(self) -> None:
+        self.m = ModeMachine(ModesParams(), 0.5)
+        self.t = 0
+        self.arm_since: int | None = None  # the test's own view of the arm gesture
+        self.seen = 0
+
+    def _update(self, **inputs: float) -> None:
+        before = self.m.mode
+        rc_valid = bool(inputs["rc_valid"])
+        arm = rc_valid and inputs["throttle_us"] <= 1050 and inputs["yaw_us"] >= 1900
+        self.arm_since = (self.arm_since if self.arm_since is not None else self.t) if arm else None
+        self.m.update(self.t, baro_ready=True, **inputs)  # type: ignore[arg-type]
+        if before is Mode.DISARMED and self.m.mode is Mode.ARMED:
+            assert self.arm_since is not None and self.t - self.arm_since >= S
+        if before is Mode.ARMED and self.m.mode is Mode.FLYING:
+            assert inputs["z_ref_m"] > 0.5
+        self.t += TICK
+
+    @rule()
+    def arm_gesture(self) -> None:
+        for _ in range(420):
+            self._update(rc_valid=True, throttle_us=1000.0, yaw_us=2000.0, z_ref_m=0.0, z_hat_m=0.0, vz_hat_mps=0.0)
+
+    @rule(z=st.sampled_from([0.0, 3.0]))
+    def climb(self, z: float) -> None:
+        for _ in range(20):
+            self._update(rc_valid=True, throttle_us=1300.0, yaw_us=1500.0, z_ref_m=3.0, z_hat_m=z, vz_hat_mps=0.0)
+
+    @rule(rc_valid=st.booleans())
+    def settle_on_the_ground(self, rc_valid: bool) -> None:
+        for _ in range(450):
+            self._update(rc_valid=rc_valid, throttle_us=1000.0, yaw_us=1500.0, z_ref_m=0.0, z_hat_m=0.0,
+                         vz_hat_mps=0.0)
+
+    @rule(n=st.sampled_from([1, 10, 100, 450]), rc_valid=st.booleans(), throttle=st.sampled_from([1000.0, 1040.0, 1300.0, 1800.0]),
+          yaw=st.sampled_from([1000.0, 1500.0, 1950.0]), z=st.sampled_from([0.0, 0.1, 3.0]),
+          vz=st.sampled_from([0.0, 1.0]))
+    def hold_sticks(self, n: int, rc_valid: bool, throttle: float, yaw: float, z: float, vz: float) -> None:
+        z_ref = 10.0 * (throttle - 1000.0) / 1000.0
+        for _ in range(n):
+            self._update(rc_valid=rc_valid, throttle_us=throttle, yaw_us=yaw, z_ref_m=z_ref, z_hat_m=z,
+                         vz_hat_mps=vz)
+
+    @rule()
+    def imu_timeout(self) -> None:
+        before = self.m.mode
+        self.m.imu_lost()
+        assert self.m.mode is (Mode.BOOT if before is Mode.BOOT else Mode.FAILSAFE_IMU)
+
+    @invariant()
+    def transitions_follow_the_table(self) -> None:
+        for tr in self.m.transitions[self.seen :]:
+            assert TRANSITIONS[tr.old][tr.event] is tr.new
+        self.seen = len(self.m.transitions)
+
+    @invariant()
+    def motors_follow_the_mode(self) -> None:
+        assert self.m.motors is MOTORS[self.m.mode]
+
+
+TestModesMachine = ModesMachine.TestCase
+TestModesMachine.settings = settings(max_examples=40, stateful_step_count=25, deadline=None)
