@@ -15,10 +15,11 @@ from hil.record.reader import (
 )
 from hil.record.recover import recover, recovered_path
 from hil.record.topics import TOPICS, WIRE_PORTS, TopicSpec, UnknownTopicError, topic_spec, wire_topic
+from hil.record.validate import Validation, validate
 from hil.record.writer import Recorder, RecordStats, RecordWriteError
 
 __all__ = [
     "TOPICS", "WIRE_PORTS", "RecordStats", "RecordWriteError", "Recorder", "TopicSpec", "TornRecordingError",
     "UnknownTopicError", "iter_messages", "message_counts", "read_attachments", "read_metadata", "read_topic",
-    "read_wire", "recover", "recovered_path", "topic_spec", "wire_topic",
+    "read_wire", "recover", "recovered_path", "topic_spec", "validate", "Validation", "wire_topic",
 ]

@@ -1,0 +1,108 @@
+"""Check a recorded MCAP file without the indexed reader the bench reads it with.
+
+Method of research/ecosystem.md section 2: stream every record with
+``StreamReader(validate_crcs=True)`` to the footer (chunk CRCs, declared schemas and channels),
+validate every JSON message against its channel's JSON schema, then cross-check the message
+counts with the summary's statistics. For tests and CI over run artifacts.
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import jsonschema
+from mcap.reader import make_reader
+from mcap.records import Channel, Footer, Header, Message, Schema
+from mcap.stream_reader import StreamReader
+
+_MAX_PROBLEMS = 50
+
+
+@dataclass
+class Validation:
+    """``counts``: messages per topic seen by the stream pass; ``problems``: what is wrong
+    (first ``_MAX_PROBLEMS``); ``schema_errors``: messages that do not match their schema."""
+
+    counts: Counter[str] = field(default_factory=Counter)
+    problems: list[str] = field(default_factory=list)
+    schema_errors: Counter[str] = field(default_factory=Counter)
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+    def _add(self, problem: str) -> None:
+        if len(self.problems) < _MAX_PROBLEMS:
+            self.problems.append(problem)
+
+
+def _reject_constant(token: str) -> float:
+    raise ValueError(f"non-standard JSON token {token}")
+
+
+def validate(path: Path | str, *, schemas: bool = True) -> Validation:
+    """Validate ``path``; never raises for a bad file (see ``Validation.problems``)."""
+    v = Validation()
+    schema_recs: dict[int, Schema] = {}
+    channels: dict[int, Channel] = {}
+    validators: dict[int, jsonschema.protocols.Validator] = {}
+    by_id: Counter[int] = Counter()
+    footer = False
+    try:
+        with Path(path).open("rb") as f:
+            records = StreamReader(f, validate_crcs=True).records
+            if not isinstance(next(records), Header):
+                v._add("first record is not a header")
+            for rec in records:
+                if isinstance(rec, Schema):
+                    schema_recs[rec.id] = rec
+                elif isinstance(rec, Channel):
+                    if rec.schema_id and rec.schema_id not in schema_recs:
+                        v._add(f"channel {rec.topic} declared before its schema {rec.schema_id}")
+                    channels[rec.id] = rec
+                    if schemas and rec.schema_id in schema_recs and schema_recs[rec.schema_id].encoding == "jsonschema":
+                        schema = json.loads(schema_recs[rec.schema_id].data)
+                        validators[rec.id] = jsonschema.validators.validator_for(schema)(schema)
+                elif isinstance(rec, Message):
+                    ch = channels.get(rec.channel_id)
+                    if ch is None:
+                        v._add(f"message on undeclared channel {rec.channel_id}")
+                        continue
+                    v.counts[ch.topic] += 1
+                    by_id[rec.channel_id] += 1
+                    if ch.message_encoding == "json":
+                        try:
+                            msg = json.loads(rec.data, parse_constant=_reject_constant)
+                        except ValueError as e:
+                            v._add(f"{ch.topic}: bad JSON: {e}")
+                            continue
+                        checker = validators.get(rec.channel_id)
+                        if checker is not None:
+                            err = jsonschema.exceptions.best_match(checker.iter_errors(msg))
+                            if err is not None:
+                                if not v.schema_errors[ch.topic]:
+                                    v._add(f"{ch.topic}: {err.message} at {list(err.absolute_path)}")
+                                v.schema_errors[ch.topic] += 1
+                elif isinstance(rec, Footer):
+                    footer = True
+    except Exception as e:  # a damaged file: McapError, CRC (ValueError), zstd, struct errors ...
+        v._add(f"stream: {type(e).__name__}: {e}")
+    if not footer:
+        v._add("no footer (killed run? use hil recover)")
+        return v
+    with Path(path).open("rb") as f:
+        summary = make_reader(f, validate_crcs=True).get_summary()
+    if summary is None or summary.statistics is None:
+        v._add("no summary statistics")
+        return v
+    stats = summary.statistics
+    if stats.message_count != sum(v.counts.values()):
+        v._add(f"statistics say {stats.message_count} messages, the stream has {sum(v.counts.values())}")
+    if {c: n for c, n in stats.channel_message_counts.items() if n} != dict(by_id):
+        v._add("per-channel statistics differ from the stream")
+    if stats.channel_count != len(channels):
+        v._add(f"statistics say {stats.channel_count} channels, the stream declares {len(channels)}")
+    return v
