@@ -255,7 +255,8 @@ _TABLE: list[TopicSpec] = [
 # fmt: on
 
 TOPICS: Mapping[str, TopicSpec] = MappingProxyType({s.topic: s for s in _TABLE})
-assert len(TOPICS) == len(_TABLE), "duplicate topic in the table"
+if len(TOPICS) != len(_TABLE):
+    raise RuntimeError("hil/record/topics.py: a topic appears twice in _TABLE")
 
 
 def topic_spec(topic: str) -> TopicSpec:

@@ -404,12 +404,26 @@ class Recorder:
             else:
                 self._emit(route, t_ns, t_host_ns, payload, complete=True)
                 if kind is _Kind.TRUTH:
-                    self._emit(self._routes["/tf"], t_ns, t_host_ns, frames.truth_to_tf(payload), complete=True)
-                    self._emit(self._routes["/sim/pose"], t_ns, t_host_ns, frames.truth_to_pose(payload),
-                               complete=True)
+                    for topic, derive in (("/tf", frames.truth_to_tf), ("/sim/pose", frames.truth_to_pose)):
+                        derived = self._routes[topic]
+                        try:
+                            msg = derive(payload)
+                        except (KeyError, TypeError, ValueError, IndexError) as e:  # truth without p_N_m/q_NB
+                            self._unencodable(derived, e)
+                            continue
+                        self._emit(derived, t_ns, t_host_ns, msg, complete=True)
         except OSError as e:  # the file is broken: count everything from here on
             self._fatal = e
             route.dropped += 1
+        except Exception as e:  # never let one message kill the writer thread (e.g. bad t_ns type)
+            self._unencodable(route, e)
+
+    @staticmethod
+    def _unencodable(route: _Route, e: BaseException) -> None:
+        route.unencodable += 1
+        route.dropped += 1
+        if not route.first_error:
+            route.first_error = f"{type(e).__name__}: {e}"
 
     def _emit(self, route: _Route, t_ns: int, t_host_ns: int, payload: Mapping[str, Any], *,
               complete: bool) -> None:
@@ -435,10 +449,7 @@ class Recorder:
                         msg.setdefault("t_host_ns", int(t_host_ns))
                 data, nonfinite = _encode(msg)
             except (TypeError, ValueError, AttributeError) as e:  # a payload that is not a JSON object
-                route.unencodable += 1
-                route.dropped += 1
-                if not route.first_error:
-                    route.first_error = f"{type(e).__name__}: {e}"
+                self._unencodable(route, e)
                 return
         else:
             data, nonfinite = _encode(payload)

@@ -316,3 +316,16 @@ def test_failed_start_leaves_nothing_half_open(tmp_path: Path) -> None:
     with pytest.raises(AttributeError):  # int has no .encode()
         bad.start()
     assert not (tmp_path / "a.mcap.part").exists()
+
+
+def test_bad_truth_and_bad_times_do_not_kill_the_writer(tmp_path: Path) -> None:
+    rec = _new(tmp_path / "r.mcap")
+    rec.start()
+    rec.log_truth(0, {"h_m": 1.0}, 0)  # no p_N_m / q_NB: /sim/truth written, /tf and /sim/pose counted
+    rec.log("/hil/events", "soon", {"kind": "bench", "name": "x", "detail": {}}, 0)  # type: ignore[arg-type]
+    rec.log("/hil/events", 1, {"kind": "bench", "name": "ok", "detail": {}}, 0)
+    stats = rec.close()
+    assert stats.messages_by_topic["/sim/truth"] == 1 and stats.messages_by_topic["/hil/events"] == 1
+    assert stats.dropped_by_topic == {"/tf": 1, "/sim/pose": 1, "/hil/events": 1}
+    summary = read_metadata(rec.path)["summary"]
+    assert summary["error./tf"].startswith("KeyError") and summary["unencodable./hil/events"] == "1"
