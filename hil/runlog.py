@@ -30,6 +30,8 @@ if TYPE_CHECKING:
     from hil.transport.base import Port
 
 RAD2DEG = 180.0 / math.pi
+#: events whose whole content is already on the wire tap (raw bytes per port)
+_WIRE_ONLY_EVENTS = frozenset({"BusPirateSpi", "CommandHandled", "SpiTransfer"})
 _LOGFMT_LEVEL = re.compile(r"\blevel=(\w+)")
 _FOXGLOVE_LEVEL = {"DEBUG": 1, "INFO": 2, "WARN": 3, "WARNING": 3, "ERROR": 4, "FATAL": 5, "CRITICAL": 5}
 
@@ -108,31 +110,57 @@ class RunLogger:
             self.rec.log("/fc/telemetry", t_ns, frame, t_host_ns)
 
     def on_event(self, port: str, ev: DeviceEvent) -> None:
+        # Hot event types (several per tick) are turned into payloads by hand; the generic
+        # dataclass walk is for the rare ones.
         name = type(ev).__name__
-        t_host = clock.monotonic_ns()
         if name == "TargetsSet":
-            targets = getattr(ev, "targets_qus", ())
-            first = getattr(ev, "first_channel", 0)
+            targets = ev.targets_qus  # type: ignore[attr-defined]
+            first = ev.first_channel  # type: ignore[attr-defined]
             cmd = list(self._last_cmd_us)
             for i, q in enumerate(targets):
                 if 0 <= first + i < 4:
                     cmd[first + i] = q / 4.0
             self._last_cmd_us = tuple(cmd)
             if self.rec is not None:
-                self.rec.log("/hil/esc/command", ev.t_ns, {"t_ns": ev.t_ns, "targets_us": list(cmd)}, t_host)
+                self.rec.log("/hil/esc/command", ev.t_ns, {"t_ns": ev.t_ns, "targets_us": cmd}, clock.monotonic_ns())
             return
-        if self.rec is None:
+        rec = self.rec
+        if rec is None or name in _WIRE_ONLY_EVENTS:
             return
+        t_host = clock.monotonic_ns()
         if name == "SampleSent":
-            self.rec.log("/hil/imu/sample", ev.t_ns, _jsonable(ev), t_host)
-        elif name in {"Conversion", "ConversionDone", "ConversionEvent"}:
-            self.rec.log("/hil/adc/conversion", ev.t_ns, _jsonable(ev), t_host)
+            rec.log(
+                "/hil/imu/sample",
+                ev.t_ns,
+                {
+                    "t_ns": ev.t_ns,
+                    "packet_counter": ev.packet_counter,  # type: ignore[attr-defined]
+                    "sample_time_fine": ev.sample_time_fine,  # type: ignore[attr-defined]
+                    "euler_deg": ev.euler_deg,  # type: ignore[attr-defined]
+                    "rate_radps": ev.rate_radps,  # type: ignore[attr-defined]
+                    "acc_mps2": ev.acc_mps2,  # type: ignore[attr-defined]
+                    "nbytes": ev.nbytes,  # type: ignore[attr-defined]
+                },
+                t_host,
+            )
+        elif name == "Mcp3204Conversion":
+            rec.log(
+                "/hil/adc/conversion",
+                ev.t_ns,
+                {
+                    "t_ns": ev.t_ns,
+                    "channel": ev.channel,  # type: ignore[attr-defined]
+                    "single_ended": ev.single_ended,  # type: ignore[attr-defined]
+                    "code": ev.code,  # type: ignore[attr-defined]
+                    "volts": ev.volts,  # type: ignore[attr-defined]
+                    "vref_V": ev.vref_V,  # type: ignore[attr-defined]
+                },
+                t_host,
+            )
         else:
             detail = _jsonable(ev)
             detail.pop("t_ns", None)
-            self.rec.log(
-                "/hil/events", max(ev.t_ns, 0), {"t_ns": ev.t_ns, "kind": f"device.{port}", "name": name, "detail": detail}, t_host
-            )
+            rec.log("/hil/events", max(ev.t_ns, 0), {"t_ns": ev.t_ns, "kind": f"device.{port}", "name": name, "detail": detail}, t_host)
 
     def flight_line(self, stream: str, line: str) -> None:
         self.fc_lines += 1
