@@ -13,10 +13,10 @@ import os
 import shutil
 import signal
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 from rich.console import Console
-from rich.table import Table
 
 from hil.bench import Mode, TickLoop
 from hil.devices import DeviceSet
@@ -45,7 +45,7 @@ async def serve_devices(
     seed: int,
     duration_s: float | None,
     console: Console,
-    ready: asyncio.Event | None = None,
+    on_ready: Callable[[dict[str, str]], None] | None = None,
     run_dir: Path | None = None,
 ) -> dict[str, dict[str, int]]:
     """Serve until Ctrl-C or ``duration_s``; returns the device counters."""
@@ -62,13 +62,15 @@ async def serve_devices(
         await port.start()
     devices.attach(dict(ports))
 
-    table = Table(title=f"{rig.name}: emulated devices (Ctrl-C to stop)")
-    table.add_column("port")
-    table.add_column("path")
-    table.add_column("device")
+    # Plain lines, never wrapped, so a path can be copied into a client's command line.
+    console.print(f"{rig.name}: emulated devices in real time (Ctrl-C to stop)", highlight=False)
     for name, port in ports.items():
-        table.add_row(name, port.path, DESCRIPTIONS[name])
-    console.print(table)
+        console.print(
+            f"  {name:<14} {port.path}  ({DESCRIPTIONS[name]}, {rig.device_baud(name) if name != 'adc-spidriver' else rig.adc.spidriver.baud_bps} baud)",
+            soft_wrap=True,
+            highlight=False,
+            markup=False,
+        )
 
     duration_ns = int((duration_s if duration_s is not None else 10 * 365 * 86400.0) * 1e9)
     loop = TickLoop(
@@ -85,8 +87,8 @@ async def serve_devices(
     if task is not None:
         with contextlib.suppress(NotImplementedError, RuntimeError):
             aloop.add_signal_handler(signal.SIGINT, task.cancel)
-    if ready is not None:
-        ready.set()
+    if on_ready is not None:
+        on_ready({name: port.path for name, port in ports.items()})
     try:
         await loop.run()
     except asyncio.CancelledError:
