@@ -174,11 +174,12 @@ class MtiDevice(ByteDevice):
 
     # -- host side --------------------------------------------------------------------------
     def line_settings_changed(self, baud: int, t_ns: int) -> None:
+        previous = self.host_baud
         super().line_settings_changed(baud, t_ns)
         self._parser.reset()  # a partial frame does not survive a reopen
         self._sync_parser_counters()
-        if baud != self._baud_bps:
-            self.counters["host_baud_mismatch"] += 1
+        if baud != self._baud_bps and baud != previous:
+            self.counters["host_baud_mismatch"] += 1  # counts episodes, not notifications
 
     def _line_matches(self) -> bool:
         return self.host_baud is None or self.host_baud == self._baud_bps
