@@ -114,6 +114,8 @@ class BusPirate(ByteDevice):
             else:
                 self._dispatch(byte, t_ns)
         self._events.extend(self.adc.take_events())
+        for key, value in self.adc.counters.items():  # the part's counters, under this port
+            self.counters["mcp3204_" + key] = value
 
     def advance(self, t_ns: int) -> None:
         self._now_ns = max(self._now_ns, t_ns)

@@ -82,6 +82,7 @@ class Mcp3204:
         self._pos = 0
         self._conv: Mcp3204Conversion | None = None
         self._frame_flagged = False
+        self._zero_after_b0 = False
 
     # -- observers ---------------------------------------------------------------------
     @property
@@ -145,10 +146,23 @@ class Mcp3204:
             self._edge(t_ns)
         out = bytearray()
         for byte in mosi:
+            if self._phase is Phase.OUTPUT and cpha == cpol and self._cs_low:
+                out.append(self._output_byte(byte, cpol, t_ns))
+                continue
             value = 0
+            matched = cpha == cpol and self._cs_low and self._phase is not Phase.POWER_UP_CS_LOW
             for i in range(7, -1, -1):
                 bit = (byte >> i) & 1
-                if cpha == 0:
+                if matched:  # a whole clock of mode 0,0 or 1,1 without the edge dispatch
+                    self._t_ns = t_ns
+                    if cpol:
+                        self._falling(t_ns)
+                    self._din = bit
+                    sample = hiz_bit if self._dout is None else self._dout
+                    self._rising(t_ns)
+                    if not cpol:
+                        self._falling(t_ns)
+                elif cpha == 0:
                     self._din = bit  # data set up before the leading edge
                     sample = self._miso(hiz_bit)  # master samples on the leading edge
                     self._edge(t_ns)
@@ -181,6 +195,42 @@ class Mcp3204:
         return self._dout
 
     # -- internals ---------------------------------------------------------------------
+    def _output_byte(self, byte: int, cpol: int, t_ns: int) -> int:
+        """Eight clocks of the OUTPUT phase in mode 0,0 or 1,1, without simulating edges.
+
+        Same result as the edge path: mode 0 samples before each falling edge (out[pos]),
+        mode 3 after it (out[pos + 1]); DOUT advances one bit per clock either way.
+        """
+        out, pos = self._out, self._pos
+        first = pos + cpol
+        bits = out[first : first + 8]
+        value = 0
+        for bit in bits:
+            value = (value << 1) | bit
+        value <<= 8 - len(bits)  # past the LSB-first copy: zeros
+        if not self._frame_flagged and pos + cpol + 7 >= B0_INDEX:
+            for i in range(8):  # the edge path's check at each rising edge (pos at that edge)
+                self._din_after_b0(pos + cpol + i, (byte >> (7 - i)) & 1, t_ns)
+        self._pos = pos + 8
+        self._dout = out[self._pos] if self._pos < len(out) else 0
+        self._din = byte & 1
+        self._t_ns = t_ns
+        if pos < B0_INDEX <= self._pos and self._conv is not None:
+            self._complete(t_ns)
+        return value
+
+    def _din_after_b0(self, pos: int, din: int, t_ns: int) -> None:
+        """DIN is don't care once B0 is out, but a 0 followed by a 1 there is a host
+        starting its next command without raising CS (dummy bytes are all 0 or all 1)."""
+        if pos < B0_INDEX or self._frame_flagged:
+            return
+        if not din:
+            self._zero_after_b0 = True
+        elif self._zero_after_b0:
+            self._frame_flagged = True
+            self.counters["cs_not_raised_between_conversions"] += 1
+            self._error(t_ns, "start of a new command while CS stayed low; the part ignores it")
+
     def _miso(self, hiz_bit: int) -> int:
         return hiz_bit if self._dout is None else self._dout
 
@@ -193,6 +243,7 @@ class Mcp3204:
             self._dout = None
             self._conv = None
             self._frame_flagged = False
+            self._zero_after_b0 = False
             self.counters["transactions"] += 1
             return
         if not self._cs_low:
@@ -231,12 +282,8 @@ class Mcp3204:
         elif phase in (Phase.D2, Phase.D1, Phase.D0):
             self._d = ((self._d << 1) | self._din) & 0b111
         elif phase is Phase.OUTPUT:
-            # DIN is don't care while data shifts out; a 1 after the data is exhausted means
-            # the host tried a new command without raising CS in between.
-            if self._pos > B0_INDEX + 11 and self._din and not self._frame_flagged:
-                self._frame_flagged = True
-                self.counters["cs_not_raised_between_conversions"] += 1
-                self._error(t_ns, "start of a new command while CS stayed low; the part ignores it")
+            if not self._frame_flagged:
+                self._din_after_b0(self._pos, self._din, t_ns)
             return
         self._phase = RISING_NEXT.get(phase, phase)
 

@@ -60,6 +60,8 @@ class SpiDriver(ByteDevice):
             else:
                 self._dispatch(byte, t_ns)
         self._events.extend(self.adc.take_events())
+        for key, value in self.adc.counters.items():  # the part's counters, under this port
+            self.counters["mcp3204_" + key] = value
 
     # -- commands ----------------------------------------------------------------------
     def _dispatch(self, byte: int, t_ns: int) -> None:

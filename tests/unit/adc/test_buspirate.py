@@ -120,6 +120,16 @@ def test_byte_by_byte_and_with_garbage_between() -> None:
     assert sum(isinstance(e, BusPirateProtocolError) for e in bp.take_events()) == 4
 
 
+def test_cs_never_raised_between_conversions_is_answered_like_the_part() -> None:
+    bp = spi_ready()
+    rx = talk(bp, b"\x02\x12" + fig61_request(1) + b"\x12" + fig61_request(1) + b"\x03")
+    assert fig61_decode(rx[2:5]) == CODES[1]
+    trailer = f"{CODES[1]:012b}"[::-1][1:] + "0" * 13  # B1..B11 LSB first, then zeros
+    assert rx[6:9] == int(trailer, 2).to_bytes(3, "big")  # no new conversion
+    assert bp.counters["mcp3204_cs_not_raised_between_conversions"] == 1
+    assert bp.counters["mcp3204_conversions"] == 1 and bp.counters["mcp3204_protocol_errors"] == 1
+
+
 def test_write_then_read_with_and_without_cs_and_length_checks() -> None:
     bp = spi_ready()
     # Linux mcp320x style through 04: write 1 byte, read 2 (the firmware clocks 0xFF).

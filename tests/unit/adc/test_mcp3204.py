@@ -187,6 +187,18 @@ def test_cs_not_raised_between_conversions_reads_the_trailer_not_a_new_code() ->
     assert adc.counters["conversions"] == 1
 
 
+def test_dummy_bytes_after_the_data_are_not_a_new_command() -> None:
+    adc, _ = make()
+    adc.select(0)
+    adc.exchange(bytes([0x60]), 0)  # Linux framing, then a long read clocking 0xFF
+    rx = adc.exchange(b"\xff" * 6, 0)
+    adc.deselect(0)
+    assert (rx[0] << 4 | rx[1] >> 4) == CODES[0]
+    read(adc, fig61_request(0) + b"\x00" * 4)
+    assert adc.counters["cs_not_raised_between_conversions"] == 0
+    assert adc.counters["conversions"] == 2
+
+
 def test_vref_is_settable_at_run_time() -> None:
     adc, _ = make([1.0, 0, 0, 0])
     assert fig61_decode(read(adc, fig61_request(0))) == 819
