@@ -24,11 +24,15 @@ _MAX_PROBLEMS = 50
 @dataclass
 class Validation:
     """``counts``: messages per topic seen by the stream pass; ``problems``: what is wrong
-    (first ``_MAX_PROBLEMS``); ``schema_errors``: messages that do not match their schema."""
+    (first ``_MAX_PROBLEMS``); ``schema_errors``: messages that do not match their schema;
+    ``nulls``: messages with ``null`` where the schema says number/integer — the recording
+    convention for a value that is not finite or not available (JSON has no NaN, and
+    Foxglove's schema parser takes no type unions), so not a problem."""
 
     counts: Counter[str] = field(default_factory=Counter)
     problems: list[str] = field(default_factory=list)
     schema_errors: Counter[str] = field(default_factory=Counter)
+    nulls: Counter[str] = field(default_factory=Counter)
 
     @property
     def ok(self) -> bool:
@@ -41,6 +45,10 @@ class Validation:
 
 def _reject_constant(token: str) -> float:
     raise ValueError(f"non-standard JSON token {token}")
+
+
+def _is_null_number(err: jsonschema.ValidationError) -> bool:
+    return err.validator == "type" and err.instance is None and err.validator_value in ("number", "integer")
 
 
 def validate(path: Path | str, *, schemas: bool = True) -> Validation:
@@ -81,8 +89,12 @@ def validate(path: Path | str, *, schemas: bool = True) -> Validation:
                             continue
                         checker = validators.get(rec.channel_id)
                         if checker is not None:
-                            err = jsonschema.exceptions.best_match(checker.iter_errors(msg))
-                            if err is not None:
+                            errors = list(checker.iter_errors(msg))
+                            real = [e for e in errors if not _is_null_number(e)]
+                            if errors and not real:
+                                v.nulls[ch.topic] += 1
+                            elif real:
+                                err = jsonschema.exceptions.best_match(real)
                                 if not v.schema_errors[ch.topic]:
                                     v._add(f"{ch.topic}: {err.message} at {list(err.absolute_path)}")
                                 v.schema_errors[ch.topic] += 1

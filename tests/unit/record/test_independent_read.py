@@ -69,3 +69,14 @@ def test_data_end_present(tmp_path: Path) -> None:
     rec = record_examples(tmp_path / "run.mcap", n_rounds=1)
     with rec.path.open("rb") as f:
         assert any(isinstance(r, DataEnd) for r in StreamReader(f).records)
+
+
+def test_null_numbers_are_the_nan_convention_not_errors(tmp_path: Path) -> None:
+    rec = Recorder(tmp_path / "r.mcap", run_start_unix_ns=RUN_START_NS, metadata={})
+    with rec:
+        rec.log("/hil/adc/conversion", 0, {"channel": 0, "code": 1, "volts": float("nan")}, 0)
+        rec.log("/hil/adc/conversion", 1, {"channel": 0, "code": 1, "volts": None}, 0)
+        rec.log("/hil/adc/conversion", 2, {"channel": 0, "code": 1, "volts": "high"}, 0)
+    v = validate(rec.path)
+    assert v.nulls == Counter({"/hil/adc/conversion": 2})
+    assert v.schema_errors == Counter({"/hil/adc/conversion": 1}) and len(v.problems) == 1
