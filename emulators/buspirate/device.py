@@ -15,6 +15,7 @@ the floating level (0 without pull-ups).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -25,14 +26,12 @@ from emulators.buspirate.defs import (
     MODE_VERSION,
     OK,
     PIN_DIR_FLAG,
-    PIN_MASK,
     PIN_SET_FLAG,
     SPI_CON1_V61,
     SPI_CON1_V62,
     BbioCmd,
     Mode,
     PeripheralBit,
-    Pin,
     SpiCmd,
     SpiConfigBit,
     SpiGroup,
@@ -42,10 +41,9 @@ from emulators.buspirate.defs import (
     sck_Hz as con1_sck_Hz,
 )
 from emulators.buspirate.params import BusPirateParams
+from emulators.buspirate.pins import Pins
 from emulators.buspirate.terminal import Terminal
 from emulators.mcp3204 import Mcp3204
-
-UART_BYTE_NS = 10 * 1_000_000_000 // 115200  # 8N1 at 115200 bit/s
 
 
 @dataclass(frozen=True)
@@ -70,10 +68,9 @@ class BusPirateSpi(DeviceEvent):
 
 
 def _firmware_version(firmware: str) -> tuple[int, int]:
-    """(major, minor) from e.g. ``"v6.1 r1676"``, parsed the way flashrom does."""
-    text = firmware.lstrip("v").split()[0] if firmware else "0"
-    major, _, minor = text.partition(".")
-    return int("0" + "".join(c for c in major if c.isdigit())), int("0" + "".join(c for c in minor if c.isdigit()))
+    """(major, minor) from e.g. ``"v6.1 r1676"``, as flashrom reads it; (0, 0) if unknown."""
+    m = re.match(r"v(\d+)\D*(\d*)", firmware)
+    return (int(m.group(1)), int(m.group(2) or 0)) if m else (0, 0)
 
 
 class BusPirate(ByteDevice):
@@ -95,14 +92,12 @@ class BusPirate(ByteDevice):
         self._other_version = b""
         self._stream_t0_ns = 0
         self._stream_sent = 0
-        self._now_ns = 0
-        self._reset_pins()
+        self.pins = Pins(params.target_pullups)
         self._reset_spi()
         self._send(self.terminal.reset())  # power-up banner (flushed by the host's open)
 
     # -- ByteDevice --------------------------------------------------------------------
     def receive(self, data: bytes, t_ns: int) -> None:
-        self._now_ns = t_ns
         if self.host_baud is not None and self.host_baud != self.params.baud_bps:
             # Wrong line rate: the PIC's UART sees framing errors and drops the bytes.
             self.counters["bytes_at_wrong_baud"] += len(data)
@@ -118,9 +113,9 @@ class BusPirate(ByteDevice):
             self.counters["mcp3204_" + key] = value
 
     def advance(self, t_ns: int) -> None:
-        self._now_ns = max(self._now_ns, t_ns)
-        if self.mode is Mode.ADC_STREAM:
-            due = (t_ns - self._stream_t0_ns) // (2 * UART_BYTE_NS)
+        if self.mode is Mode.ADC_STREAM:  # two bytes per reading, as fast as the UART goes
+            byte_ns = 10 * 1_000_000_000 // self.params.baud_bps  # 8N1
+            due = (t_ns - self._stream_t0_ns) // (2 * byte_ns)
             n = max(0, min(due - self._stream_sent, 2048))
             self._send(b"\x00\x00" * n)  # the probe input is not connected: 0 counts
             self._stream_sent += n
@@ -171,31 +166,31 @@ class BusPirate(ByteDevice):
 
     # -- bitbang mode (binIO.c binBB) -----------------------------------------------------
     def _enter_bbio(self, t_ns: int) -> None:
-        self._reset_pins()
+        self.pins.reset()
         self._set_mode(Mode.BBIO, t_ns)
         self._send(BBIO_VERSION)
 
     def _bbio(self, byte: int, t_ns: int) -> None:
         if byte & PIN_SET_FLAG:
-            self._send(bytes([self._pin_set(byte, t_ns)]))
+            self._send(bytes([self.pins.set_levels(byte, self.adc, t_ns)]))
             return
         if byte == BbioCmd.RESET_BBIO:
             self._send(BBIO_VERSION)
         elif byte == BbioCmd.SPI:
-            self._reset_pins()
+            self.pins.reset()
             self._set_mode(Mode.SPI, t_ns)
             self._reset_spi()
             self._apply_lines(t_ns)
             self._send(MODE_VERSION[BbioCmd.SPI])
         elif byte in MODE_VERSION:
-            self._reset_pins()
+            self.pins.reset()
             self._other_version = MODE_VERSION[BbioCmd(byte)]
             self.counters["unemulated_mode_entries"] += 1
             self._set_mode(Mode.OTHER, t_ns)
             self._send(self._other_version)
         elif byte == BbioCmd.RESET_TO_TERMINAL:
             self._send(bytes([OK]))
-            self._reset_pins()
+            self.pins.reset()
             self._set_mode(Mode.TERMINAL, t_ns)
             self._send(self.terminal.reset())
         elif byte in (BbioCmd.SELFTEST_SHORT, BbioCmd.SELFTEST_FULL):
@@ -213,7 +208,7 @@ class BusPirate(ByteDevice):
         elif byte == BbioCmd.FREQ_MEASURE:
             self._send(b"\x00\x00\x00\x00")  # no signal on AUX
         elif byte & PIN_DIR_FLAG:
-            self._send(bytes([self._pin_dir(byte, t_ns)]))
+            self._send(bytes([self.pins.set_direction(byte, self.adc, t_ns)]))
         else:
             self._send(bytes([ERROR]))
             self._error(t_ns, "unknown_bbio_command", byte)
@@ -227,63 +222,13 @@ class BusPirate(ByteDevice):
 
     def _other(self, byte: int, t_ns: int) -> None:
         if byte == 0x00:
-            self._reset_pins()
+            self.pins.reset()
             self._set_mode(Mode.BBIO, t_ns)
             self._send(BBIO_VERSION)
         elif byte == 0x01:
             self._send(self._other_version)
         else:
             self.counters["unemulated_mode_bytes"] += 1
-
-    # -- pins -----------------------------------------------------------------------------
-    def _reset_pins(self) -> None:
-        """binReset(): all pins inputs, latches low, power and pull-ups off."""
-        self._dir = PIN_MASK
-        self._lat = 0
-        self._power = False
-        self._pullups = False
-        self._aux = 0
-
-    def _pin_dir(self, byte: int, t_ns: int) -> int:
-        self._dir = byte & PIN_MASK
-        self._apply_pins(t_ns)
-        return (byte & ~PIN_MASK & 0xFF) | self._pin_read()
-
-    def _pin_set(self, byte: int, t_ns: int) -> int:
-        self._power = bool(byte & Pin.POWER)
-        self._pullups = bool(byte & Pin.PULLUP)
-        self._lat = byte & PIN_MASK
-        self._apply_pins(t_ns)
-        return (byte & ~PIN_MASK & 0xFF) | self._pin_read()
-
-    def _level(self, pin: Pin) -> int | None:
-        """Level on a pin driven by the Bus Pirate in bitbang mode; None if floating."""
-        if not self._dir & pin:
-            return 1 if self._lat & pin else 0
-        if self._pullups or self.params.target_pullups:
-            return 1
-        return None
-
-    def _apply_pins(self, t_ns: int) -> None:
-        cs, sck, din = self._level(Pin.CS), self._level(Pin.CLK), self._level(Pin.MOSI)
-        adc = self.adc
-        adc.set_pins(  # a floating pin keeps its last level: the part sees no edge
-            t_ns,
-            cs=(0 if adc.cs_low else 1) if cs is None else cs,
-            sck=adc.sck if sck is None else sck,
-            din=adc.din if din is None else din,
-        )
-
-    def _pin_read(self) -> int:
-        value = 0
-        for pin in (Pin.CS, Pin.MISO, Pin.CLK, Pin.MOSI, Pin.AUX):
-            if pin is Pin.MISO and self._dir & pin:
-                dout = self.adc.dout
-                level = (1 if self._pullups else 0) if dout is None else dout
-            else:
-                level = self._level(pin) or 0
-            value |= pin if level else 0
-        return value
 
     # -- SPI mode (SPI.c binSPI) ------------------------------------------------------------
     def _reset_spi(self) -> None:
@@ -304,7 +249,7 @@ class BusPirate(ByteDevice):
         return con1_sck_Hz(table[self._speed])
 
     def _lines_driven(self) -> bool:
-        return bool(self._config & SpiConfigBit.PUSH_PULL) or self._pullups or self.params.target_pullups
+        return bool(self._config & SpiConfigBit.PUSH_PULL) or self.pins.pulled_up
 
     def _apply_lines(self, t_ns: int) -> None:
         """Bring the part's CS and idle clock in line with the SPI settings."""
@@ -320,7 +265,7 @@ class BusPirate(ByteDevice):
         if not self._lines_driven():
             self.counters["spi_bytes_lines_undriven"] += len(mosi)
             return bytes(len(mosi))
-        miso = self.adc.exchange(mosi, t_ns, self.spi_mode, hiz_bit=int(self._pullups), f_sck_Hz=self.sck_Hz)
+        miso = self.adc.exchange(mosi, t_ns, self.spi_mode, hiz_bit=int(self.pins.pullups), f_sck_Hz=self.sck_Hz)
         return miso
 
     def _spi(self, byte: int, t_ns: int) -> None:
@@ -333,9 +278,9 @@ class BusPirate(ByteDevice):
             self._bulk(byte & 0x0F)
         elif group == SpiGroup.PERIPHERALS:
             self._periph = byte & 0x0F
-            self._power = bool(byte & PeripheralBit.POWER)
-            self._pullups = bool(byte & PeripheralBit.PULLUPS)
-            self._aux = 1 if byte & PeripheralBit.AUX else 0
+            self.pins.power = bool(byte & PeripheralBit.POWER)
+            self.pins.pullups = bool(byte & PeripheralBit.PULLUPS)
+            self.pins.aux = 1 if byte & PeripheralBit.AUX else 0
             self._cs_latch = 1 if byte & PeripheralBit.CS else 0
             self._apply_lines(t_ns)
             self._send(bytes([OK]))
@@ -355,7 +300,7 @@ class BusPirate(ByteDevice):
 
     def _spi_setup(self, byte: int, t_ns: int) -> None:
         if byte == SpiCmd.EXIT:
-            self._reset_pins()
+            self.pins.reset()
             self._set_mode(Mode.BBIO, t_ns)
             self._send(BBIO_VERSION)
         elif byte == SpiCmd.VERSION:

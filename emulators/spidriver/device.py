@@ -45,11 +45,9 @@ class SpiDriver(ByteDevice):
         self.pin_b = 1
         self.cs = 1  # /spi: unsel
         self._cont: Callable[[int, int], None] | None = None
-        self._now_ns = 0
 
     # -- ByteDevice --------------------------------------------------------------------
     def receive(self, data: bytes, t_ns: int) -> None:
-        self._now_ns = t_ns
         if self.host_baud is not None and self.host_baud != self.params.baud_bps:
             self.counters["bytes_at_wrong_baud"] += len(data)
             return
