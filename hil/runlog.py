@@ -129,20 +129,17 @@ class RunLogger:
             return
         t_host = clock.monotonic_ns()
         if name == "SampleSent":
-            rec.log(
-                "/hil/imu/sample",
-                ev.t_ns,
-                {
-                    "t_ns": ev.t_ns,
-                    "packet_counter": ev.packet_counter,  # type: ignore[attr-defined]
-                    "sample_time_fine": ev.sample_time_fine,  # type: ignore[attr-defined]
-                    "euler_deg": ev.euler_deg,  # type: ignore[attr-defined]
-                    "rate_radps": ev.rate_radps,  # type: ignore[attr-defined]
-                    "acc_mps2": ev.acc_mps2,  # type: ignore[attr-defined]
-                    "nbytes": ev.nbytes,  # type: ignore[attr-defined]
-                },
-                t_host,
-            )
+            sample = {
+                "t_ns": ev.t_ns,
+                "packet_counter": ev.packet_counter,  # type: ignore[attr-defined]
+                "sample_time_fine": ev.sample_time_fine,  # type: ignore[attr-defined]
+                "euler_deg": ev.euler_deg,  # type: ignore[attr-defined]
+                "rate_radps": ev.rate_radps,  # type: ignore[attr-defined]
+                "acc_mps2": ev.acc_mps2,  # type: ignore[attr-defined]
+                "nbytes": ev.nbytes,  # type: ignore[attr-defined]
+            }
+            # items the configured output does not carry are left out, not null
+            rec.log("/hil/imu/sample", ev.t_ns, {k: v for k, v in sample.items() if v is not None}, t_host)
         elif name == "Mcp3204Conversion":
             rec.log(
                 "/hil/adc/conversion",

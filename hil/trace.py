@@ -69,6 +69,16 @@ class Trace:
         """
         if " - " in name:
             left, right = (part.strip() for part in name.split(" - ", 1))
+            if right in self._series and left not in self._series:
+                # compare at the irregular series' own instants (e.g. 50 Hz telemetry):
+                # holding it on the 400 Hz grid would add its sample-and-hold error
+                times, values = self._series[right]
+                st = np.asarray(times, dtype=np.int64)
+                t_grid, a = self.signal(left, grid)
+                grid_ns = np.rint(t_grid * 1e9).astype(np.int64)
+                idx = np.searchsorted(grid_ns, st, side="right") - 1
+                ok = idx >= 0
+                return st[ok] / 1e9, a[idx[ok]] - np.asarray(values, dtype=float)[ok]
             t_s, a = self.signal(left, grid)
             _, b = self.signal(right, grid)
             return t_s, a - b
