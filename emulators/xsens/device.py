@@ -71,7 +71,7 @@ from emulators.xsens.output_config import (
     mtdata2_payload_size,
 )
 from emulators.xsens.params import Identity, PowerUp, XsensParams
-from emulators.xsens.sample import SampleBuilder
+from emulators.xsens.sample import Ctx, Planned, SampleBuilder, plan
 from emulators.xsens.uart import receive_at_wrong_baud
 
 #: Message-driven transitions: state -> {MID: next state}. Each is acknowledged with MID + 1
@@ -109,6 +109,7 @@ class MtiDevice(ByteDevice):
         self._state = State.MEASUREMENT
         self._t_ns: int | None = None  # last time seen; None before the first call
         self._stream_after_ns = -1  # data instants must be later than this
+        self._plan: tuple[Planned, ...] = ()
         self._schedule = self._make_schedule()
         self._counter = 0  # packet counter (mk4) / sample counter (legacy), u16
         self._silenced = False
@@ -317,8 +318,11 @@ class MtiDevice(ByteDevice):
     def _make_schedule(self) -> Schedule:
         s = self._settings
         if legacy_active(self._identity, s):
-            return legacy_schedule(s.period, s.skip_factor)
-        return mk4_schedule(s.output_configuration, self.params.sample_rate_hz)
+            schedule = legacy_schedule(s.period, s.skip_factor)
+        else:
+            schedule = mk4_schedule(s.output_configuration, self.params.sample_rate_hz)
+        self._plan = plan(schedule.items, schedule.period_ns or 1_000_000_000 // self.params.sample_rate_hz)
+        return schedule
 
     def _stream_until(self, t: int) -> None:
         period = self._schedule.period_ns
@@ -351,10 +355,8 @@ class MtiDevice(ByteDevice):
                 acc, rate = ls.acc_mps2, ls.rate_radps
             return frame, SampleSent(t, self._counter, None, euler, rate, acc, len(frame))
         stf = ((t + self.params.power_on_offset_ns) // _TICK_STF_NS) & 0xFFFF_FFFF
-        period = self._schedule.period_ns or 1_000_000_000 // self.params.sample_rate_hz
-        due = [(x, p) for x, p in self._schedule.items if p is None or t % p == 0]
-        items = [(x, period if p is None else p) for x, p in due]
-        built = self._builder.mtdata2(items, m, status, self._counter, stf, t + self.params.power_on_offset_ns)
+        due = [it for it in self._plan if it.period_ns is None or t % it.period_ns == 0]
+        built = self._builder.mtdata2(due, Ctx(m, status, self._counter, stf, t + self.params.power_on_offset_ns))
         frame = encode_frame(MID.MTDATA2, built.payload)
         return frame, SampleSent(t, self._counter, stf, built.euler_deg, built.rate_radps, built.acc_mps2, len(frame))
 

@@ -46,10 +46,14 @@ def _encode_scalar(v: float, precision: Precision) -> bytes:
     return _FP1632.pack(raw & 0xFFFF_FFFF, raw >> 32)
 
 
+_F32_N = [struct.Struct(f">{n}f") for n in range(10)]
+
+
 def encode_values(values: Sequence[float], precision: Precision) -> bytes:
     """Scalars in ``precision``, concatenated."""
     if precision is Precision.FLOAT32:
-        return struct.pack(f">{len(values)}f", *values)
+        n = len(values)
+        return (_F32_N[n] if n < 10 else struct.Struct(f">{n}f")).pack(*values)
     if precision is Precision.FLOAT64:
         return struct.pack(f">{len(values)}d", *values)
     return b"".join(_encode_scalar(v, precision) for v in values)

@@ -5,16 +5,19 @@ plus the environment. Output: the MTData2 packets due at this instant, each in i
 coordinate system and precision (frames.py), or a legacy MTData payload. Saturation at the
 sensor ranges sets the clip bits of the status word and clears "orientation valid", as the
 golden MTi-300 capture shows during a hard shake (0x00481401).
+
+Each configured item is decoded once into a :class:`Planned` record holding the function
+that produces its bytes, so the 400 Hz path does no per-item type dispatch.
 """
 
 from __future__ import annotations
 
 import struct
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 from emulators.xsens import legacy
-from emulators.xsens.defs import XDI, XDI_COORD_MASK, XDI_FORMAT_MASK, CoordSys, StatusFlag
+from emulators.xsens.defs import XDI, XDI_COORD_MASK, XDI_FORMAT_MASK, CoordSys, Precision, StatusFlag
 from emulators.xsens.errors import Measured
 from emulators.xsens.frames import (
     Q_IDENTITY,
@@ -34,9 +37,54 @@ from emulators.xsens.frames import (
 from emulators.xsens.mtdata2 import encode_values, precision_of
 from emulators.xsens.params import XsensParams
 
-_CLIP_ACC = (StatusFlag.CLIP_ACC_X, StatusFlag.CLIP_ACC_Y, StatusFlag.CLIP_ACC_Z)
-_CLIP_GYR = (StatusFlag.CLIP_GYR_X, StatusFlag.CLIP_GYR_Y, StatusFlag.CLIP_GYR_Z)
+_CLIP_ACC = (int(StatusFlag.CLIP_ACC_X), int(StatusFlag.CLIP_ACC_Y), int(StatusFlag.CLIP_ACC_Z))
+_CLIP_GYR = (int(StatusFlag.CLIP_GYR_X), int(StatusFlag.CLIP_GYR_Y), int(StatusFlag.CLIP_GYR_Z))
+_OK = int(StatusFlag.SELFTEST_OK)
+_VALID = int(StatusFlag.ORIENTATION_VALID)
+_CLIPPED = int(StatusFlag.CLIPPING_DETECTED)
 _U16, _U32 = struct.Struct(">H"), struct.Struct(">I")
+
+
+@dataclass(frozen=True)
+class Ctx:
+    """Per-message inputs shared by the item encoders."""
+
+    m: Measured
+    status: int
+    packet_counter: int
+    sample_time_fine: int
+    t_device_ns: int
+
+
+@dataclass(frozen=True)
+class Planned:
+    """One configured MTData2 item, decoded once when the configuration is applied.
+
+    ``period_ns`` None = in every message; ``dt_s`` is the interval DeltaV/DeltaQ span;
+    ``report`` names the SampleSent field the item's values go to (or "").
+    """
+
+    xdi: int
+    kind: XDI
+    coord: CoordSys
+    precision: Precision
+    period_ns: int | None
+    dt_s: float
+    header: bytes
+    encode: Callable[[SampleBuilder, Planned, Ctx], tuple[bytes, tuple[float, ...] | None]]
+    report: str
+
+
+def plan(items: Iterable[tuple[int, int | None]], message_period_ns: int) -> tuple[Planned, ...]:
+    """Decode ``(xdi, period ns or None)`` pairs of a schedule into :class:`Planned` items."""
+    out = []
+    for xdi, period in items:
+        kind = XDI(xdi & ~XDI_FORMAT_MASK & 0xFFFF)
+        span = message_period_ns if period is None else period
+        encode = _ENCODERS[kind]
+        out.append(Planned(xdi, kind, CoordSys(xdi & XDI_COORD_MASK), precision_of(xdi), period, span * 1e-9,
+                           xdi.to_bytes(2, "big"), encode, _REPORT.get(kind, "")))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -49,13 +97,16 @@ class Built:
     acc_mps2: Vec3 | None
 
 
-def _clip(v: Vec3, limit: float, flags: tuple[StatusFlag, ...]) -> tuple[Vec3, int]:
+def _clip(v: Vec3, limit: float, flags: tuple[int, int, int]) -> tuple[Vec3, int]:
+    x, y, z = v
+    if -limit <= x <= limit and -limit <= y <= limit and -limit <= z <= limit:
+        return v, 0
     status, out = 0, []
-    for x, flag in zip(v, flags, strict=True):
-        if x > limit or x < -limit:
+    for c, flag in zip(v, flags, strict=True):
+        if c > limit or c < -limit:
             status |= flag
-            x = limit if x > 0 else -limit
-        out.append(x)
+            c = limit if c > 0 else -limit
+        out.append(c)
     return (out[0], out[1], out[2]), status
 
 
@@ -72,94 +123,110 @@ class SampleBuilder:
         """Clip at the sensor ranges; return the clipped sample and its status word."""
         f, s_acc = _clip(m.f_S_mps2, self.p.acc_range_mps2, _CLIP_ACC)
         w, s_gyr = _clip(m.omega_S_radps, self.p.gyro_range_radps, _CLIP_GYR)
-        status = StatusFlag.SELFTEST_OK | s_acc | s_gyr
-        if s_acc or s_gyr:
-            status |= StatusFlag.CLIPPING_DETECTED
-        else:
-            status |= StatusFlag.ORIENTATION_VALID
-        return Measured(m.q_NS, w, f), int(status)
+        if not (s_acc or s_gyr):
+            return m, _OK | _VALID
+        return Measured(m.q_NS, w, f), _OK | s_acc | s_gyr | _CLIPPED
 
-    def _orientation(self, q_NS: Quat, coord: CoordSys) -> Quat:
+    def orientation(self, q_NS: Quat, coord: CoordSys) -> Quat:
+        """Orientation in the output frame, alignment rotations applied."""
         q = orientation_in(q_NS, coord)
         sensor, local = self.alignment
         if sensor is not Q_IDENTITY or local is not Q_IDENTITY:
             q = quat_normalize(quat_mul(quat_mul(local, q), sensor))
         return q
 
-    def _vector(self, v_S: Vec3, coord: CoordSys) -> Vec3:
+    def vector(self, v_S: Vec3, coord: CoordSys) -> Vec3:
+        """A sensor-frame vector in the output sensor frame, sensor alignment applied."""
         v = vector_in(v_S, coord)
         sensor = self.alignment[0]
         return v if sensor is Q_IDENTITY else rotate_inv(sensor, v)
 
-    def mtdata2(self, items: Iterable[tuple[int, int]], m: Measured, status: int, packet_counter: int,
-                sample_time_fine: int, t_device_ns: int) -> Built:
-        """MTData2 payload for ``(xdi, item period ns)`` pairs due now (period for DeltaV/Q)."""
+    def mag_au(self, q_NS: Quat, coord: CoordSys) -> Vec3:
+        return self.vector(rotate_inv(q_NS, self.p.mag_field_N_au), coord)
+
+    def mtdata2(self, items: Iterable[Planned], ctx: Ctx) -> Built:
+        """MTData2 payload of the planned items due now."""
         out = bytearray()
-        euler = rate = acc = None
-        for xdi, period_ns in items:
-            kind = XDI(xdi & ~XDI_FORMAT_MASK & 0xFFFF)
-            if kind is XDI.PACKET_COUNTER:
-                data = _U16.pack(packet_counter & 0xFFFF)
-            elif kind is XDI.SAMPLE_TIME_FINE:
-                data = _U32.pack(sample_time_fine)
-            elif kind is XDI.SAMPLE_TIME_COARSE:
-                data = _U32.pack((t_device_ns // 1_000_000_000) & 0xFFFF_FFFF)
-            elif kind is XDI.STATUS_WORD:
-                data = _U32.pack(status & 0xFFFF_FFFF)
-            elif kind is XDI.STATUS_BYTE:
-                data = bytes((status & 0xFF,))
-            elif kind is XDI.BARO_PRESSURE:
-                data = _U32.pack(max(0, round(self.pressure_Pa)) & 0xFFFF_FFFF)
-            else:
-                coord = CoordSys(xdi & XDI_COORD_MASK)
-                values = self._values(kind, coord, m, period_ns * 1e-9)
-                if kind is XDI.EULER_ANGLES:
-                    euler = (values[0], values[1], values[2])
-                elif kind is XDI.RATE_OF_TURN:
-                    rate = (values[0], values[1], values[2])
-                elif kind is XDI.ACCELERATION:
-                    acc = (values[0], values[1], values[2])
-                data = encode_values(values, precision_of(xdi))
-            out += xdi.to_bytes(2, "big")
+        reported: dict[str, tuple[float, ...]] = {}
+        for it in items:
+            data, values = it.encode(self, it, ctx)
+            if it.report and values is not None:
+                reported[it.report] = values
+            out += it.header
             out.append(len(data))
             out += data
-        return Built(bytes(out), euler, rate, acc)
-
-    def _values(self, kind: XDI, coord: CoordSys, m: Measured, dt_s: float) -> tuple[float, ...]:
-        if kind is XDI.EULER_ANGLES:
-            return quat_to_euler_deg(self._orientation(m.q_NS, coord))
-        if kind is XDI.QUATERNION:
-            return self._orientation(m.q_NS, coord)
-        if kind is XDI.ROTATION_MATRIX:
-            rows = quat_to_matrix(self._orientation(m.q_NS, coord))
-            return tuple(rows[r][c] for c in range(3) for r in range(3))
-        if kind is XDI.ACCELERATION:
-            return self._vector(m.f_S_mps2, coord)
-        if kind is XDI.RATE_OF_TURN:
-            return self._vector(m.omega_S_radps, coord)
-        if kind is XDI.DELTA_V:
-            return tuple(x * dt_s for x in self._vector(m.f_S_mps2, coord))
-        if kind is XDI.DELTA_Q:
-            return delta_q(self._vector(m.omega_S_radps, coord), dt_s)
-        if kind is XDI.FREE_ACCELERATION:
-            a = rotate(self._orientation(m.q_NS, coord), self._vector(m.f_S_mps2, coord))
-            g = gravity_in(self.p.gravity_mps2, coord)
-            return (a[0] + g[0], a[1] + g[1], a[2] + g[2])
-        if kind is XDI.MAGNETIC_FIELD:
-            return self._vector(rotate_inv(m.q_NS, self.p.mag_field_N_au), coord)
-        if kind is XDI.TEMPERATURE:
-            return (self.temperature_degC,)
-        raise ValueError(f"no value model for {kind.name}")
+        e, r, a = reported.get("euler"), reported.get("rate"), reported.get("acc")
+        return Built(bytes(out), None if e is None else (e[0], e[1], e[2]), None if r is None else (r[0], r[1], r[2]),
+                     None if a is None else (a[0], a[1], a[2]))
 
     def legacy_sample(self, settings: int, m: Measured, status: int, counter: int) -> legacy.LegacySample:
         """The legacy sample in the frame settings bit 31 selects (NED, else NWU)."""
         coord = CoordSys.NED if legacy.is_ned(settings) else CoordSys.NWU
         return legacy.LegacySample(
             temperature_degC=self.temperature_degC,
-            acc_mps2=self._vector(m.f_S_mps2, coord),
-            rate_radps=self._vector(m.omega_S_radps, coord),
-            mag_au=self._vector(rotate_inv(m.q_NS, self.p.mag_field_N_au), coord),
-            q=self._orientation(m.q_NS, coord),
+            acc_mps2=self.vector(m.f_S_mps2, coord),
+            rate_radps=self.vector(m.omega_S_radps, coord),
+            mag_au=self.mag_au(m.q_NS, coord),
+            q=self.orientation(m.q_NS, coord),
             status=status & 0xFF,
             sample_counter=counter,
         )
+
+
+# -- item encoders ---------------------------------------------------------------------------------
+_Encoded = tuple[bytes, tuple[float, ...] | None]
+
+
+def _int_item(fn: Callable[[SampleBuilder, Ctx], bytes]) -> Callable[[SampleBuilder, Planned, Ctx], _Encoded]:
+    def encode(b: SampleBuilder, it: Planned, ctx: Ctx) -> _Encoded:
+        return fn(b, ctx), None
+
+    return encode
+
+
+_INT_ENCODERS: dict[XDI, Callable[[SampleBuilder, Planned, Ctx], _Encoded]] = {
+    XDI.PACKET_COUNTER: _int_item(lambda b, c: _U16.pack(c.packet_counter & 0xFFFF)),
+    XDI.SAMPLE_TIME_FINE: _int_item(lambda b, c: _U32.pack(c.sample_time_fine)),
+    XDI.SAMPLE_TIME_COARSE: _int_item(lambda b, c: _U32.pack((c.t_device_ns // 1_000_000_000) & 0xFFFF_FFFF)),
+    XDI.STATUS_WORD: _int_item(lambda b, c: _U32.pack(c.status & 0xFFFF_FFFF)),
+    XDI.STATUS_BYTE: _int_item(lambda b, c: bytes((c.status & 0xFF,))),
+    XDI.BARO_PRESSURE: _int_item(lambda b, c: _U32.pack(max(0, round(b.pressure_Pa)) & 0xFFFF_FFFF)),
+}
+
+
+def _matrix(b: SampleBuilder, it: Planned, m: Measured) -> tuple[float, ...]:
+    rows = quat_to_matrix(b.orientation(m.q_NS, it.coord))
+    return tuple(rows[r][c] for c in range(3) for r in range(3))  # column-major
+
+
+def _free_acc(b: SampleBuilder, it: Planned, m: Measured) -> tuple[float, ...]:
+    a = rotate(b.orientation(m.q_NS, it.coord), b.vector(m.f_S_mps2, it.coord))
+    g = gravity_in(b.p.gravity_mps2, it.coord)
+    return (a[0] + g[0], a[1] + g[1], a[2] + g[2])
+
+
+_VALUES: dict[XDI, Callable[[SampleBuilder, Planned, Measured], tuple[float, ...]]] = {
+    XDI.EULER_ANGLES: lambda b, it, m: quat_to_euler_deg(b.orientation(m.q_NS, it.coord)),
+    XDI.QUATERNION: lambda b, it, m: b.orientation(m.q_NS, it.coord),
+    XDI.ROTATION_MATRIX: _matrix,
+    XDI.ACCELERATION: lambda b, it, m: b.vector(m.f_S_mps2, it.coord),
+    XDI.RATE_OF_TURN: lambda b, it, m: b.vector(m.omega_S_radps, it.coord),
+    XDI.DELTA_V: lambda b, it, m: tuple(x * it.dt_s for x in b.vector(m.f_S_mps2, it.coord)),
+    XDI.DELTA_Q: lambda b, it, m: delta_q(b.vector(m.omega_S_radps, it.coord), it.dt_s),
+    XDI.FREE_ACCELERATION: _free_acc,
+    XDI.MAGNETIC_FIELD: lambda b, it, m: b.mag_au(m.q_NS, it.coord),
+    XDI.TEMPERATURE: lambda b, it, m: (b.temperature_degC,),
+}
+_REPORT = {XDI.EULER_ANGLES: "euler", XDI.RATE_OF_TURN: "rate", XDI.ACCELERATION: "acc"}
+
+
+def _float_item(fn: Callable[[SampleBuilder, Planned, Measured], tuple[float, ...]]
+                ) -> Callable[[SampleBuilder, Planned, Ctx], _Encoded]:
+    def encode(b: SampleBuilder, it: Planned, ctx: Ctx) -> _Encoded:
+        values = fn(b, it, ctx.m)
+        return encode_values(values, it.precision), values
+
+    return encode
+
+
+_ENCODERS = {**_INT_ENCODERS, **{kind: _float_item(fn) for kind, fn in _VALUES.items()}}
