@@ -389,7 +389,7 @@ class FakeWorld:
     FIELD_ALT_M = 50.0
 
     def __init__(self, sticks: Callable[[float], list[float] | None], *, legacy_imu: bool = False,
-                 rc_frontend: str = "capture", seed: int = 1) -> None:
+                 rc_frontend: str = "capture", seed: int = 1, motor_tau_s: float = 0.0) -> None:
         self.ports = {name: FakeSerial(name) for name in ("imu", "adc", "rc", "esc", "telemetry")}
         self.rng = np.random.default_rng(seed)
         self.imu = FakeXsens(self.ports["imu"], legacy=legacy_imu)
@@ -398,6 +398,8 @@ class FakeWorld:
                    else FakeSbusRc(self.ports["rc"], sticks))
         self.esc = FakeMaestro(self.ports["esc"])
         self.plant = PlantState()
+        self.motor_tau_s = motor_tau_s
+        self._thrust_N = [0.0] * 4  # with motor lag: the thrust each motor actually gives
         self.k = -1  # index of the last emitted tick
         self.imu_silent_ticks: set[int] = set()
         self.trace: list[tuple[int, float, list[float], list[float]]] = []
@@ -407,12 +409,15 @@ class FakeWorld:
     def t_ns(self) -> int:
         return max(self.k, 0) * TICK_NS
 
-    def thrusts_N(self) -> list[float]:
+    def commanded_thrusts_N(self) -> list[float]:
         out = []
-        for pulse in self.esc.pulses_us:
+        for pulse in self.esc.pulses_us[:4]:
             d = min(1.0, max(0.0, (pulse - 1000.0) / 1000.0))
             out.append(self.F_MAX_MOTOR_N * d * d)
         return out
+
+    def thrusts_N(self) -> list[float]:
+        return self._thrust_N if self.motor_tau_s > 0.0 else self.commanded_thrusts_N()
 
     def _specific_force_B(self) -> tuple[float, float, float]:
         thrust = sum(self.thrusts_N())
@@ -424,6 +429,9 @@ class FakeWorld:
 
     def _step_plant(self, dt: float) -> None:
         p = self.plant
+        if self.motor_tau_s > 0.0:  # first-order motor lag, exact for the held command
+            a = math.exp(-dt / self.motor_tau_s)
+            self._thrust_N = [c + (f0 - c) * a for f0, c in zip(self._thrust_N, self.commanded_thrusts_N())]
         f = self.thrusts_N()
         l = 0.25 / math.sqrt(2.0)
         xy = ((l, l, 1), (-l, -l, 1), (l, -l, -1), (-l, l, -1))
