@@ -25,6 +25,7 @@ class FrameType(IntEnum):
     AT_RESPONSE = 0x88
     TX_STATUS = 0x89
     MODEM_STATUS = 0x8A
+    REMOTE_AT_RESPONSE = 0x97
 
 
 @unique
@@ -58,6 +59,7 @@ class AtStatus(IntEnum):
     ERROR = 1
     INVALID_COMMAND = 2
     INVALID_PARAMETER = 3
+    REMOTE_FAILED = 4  # remote AT only: the request did not reach the remote module
 
 
 @unique
@@ -236,6 +238,20 @@ def at_command(frame_id: int, command: str, parameter: bytes = b"", queue: bool 
 def at_response(frame_id: int, command: bytes, status: int, value: bytes = b"") -> bytes:
     """AT command response (0x88)."""
     return bytes((FrameType.AT_RESPONSE, frame_id)) + command + bytes((status,)) + value
+
+
+def remote_at_command(frame_id: int, dest64: int, dest16: int, command: str, parameter: bytes = b"",
+                      options: int = 0x02) -> bytes:
+    """Remote AT command request (0x17); options bit1 = apply changes."""
+    return (bytes((FrameType.REMOTE_AT_COMMAND, frame_id)) + dest64.to_bytes(8, "big") + dest16.to_bytes(2, "big")
+            + bytes((options,)) + command.encode("ascii") + parameter)
+
+
+def remote_at_response(frame_id: int, src64: int, src16: int, command: bytes, status: int,
+                       value: bytes = b"") -> bytes:
+    """Remote AT command response (0x97)."""
+    return (bytes((FrameType.REMOTE_AT_RESPONSE, frame_id)) + src64.to_bytes(8, "big") + src16.to_bytes(2, "big")
+            + command + bytes((status,)) + value)
 
 
 def tx_status(frame_id: int, status: int) -> bytes:

@@ -80,7 +80,24 @@ class RadioLink:
 
     # -- time ----------------------------------------------------------------------------
     def advance(self, t_ns: int) -> None:
-        """Take the modules' new packets, put them on the air, deliver what is due."""
+        """Take the modules' new packets, put them on the air, deliver what is due (a
+        delivery may make a module answer, e.g. a remote AT command: that goes on too)."""
+        while True:
+            self._collect()
+            if not self._agenda or self._agenda[0][0] > t_ns:
+                return
+            while self._agenda and self._agenda[0][0] <= t_ns:
+                t, _, kind, args = heapq.heappop(self._agenda)
+                if kind == "deliver":
+                    rx, pkt, rssi = args
+                    assert isinstance(rx, XBeeModule) and isinstance(pkt, RfPacket) and isinstance(rssi, float)
+                    rx.air_receive(pkt, t, rssi)
+                else:
+                    tx, tag, status = args
+                    assert isinstance(tx, XBeeModule) and isinstance(tag, int) and isinstance(status, TxStatus)
+                    tx.air_tx_done(tag, status, t)
+
+    def _collect(self) -> None:
         new: list[tuple[int, int, XBeeModule, RfPacket]] = []
         for i, m in enumerate(self.modules):
             for pkt in m.take_air_tx():
@@ -88,16 +105,6 @@ class RadioLink:
         new.sort(key=lambda x: (x[0], x[1]))
         for _, _, m, pkt in new:
             self._schedule(m, pkt)
-        while self._agenda and self._agenda[0][0] <= t_ns:
-            t, _, kind, args = heapq.heappop(self._agenda)
-            if kind == "deliver":
-                rx, pkt, rssi = args
-                assert isinstance(rx, XBeeModule) and isinstance(pkt, RfPacket) and isinstance(rssi, float)
-                rx.air_receive(pkt, t, rssi)
-            else:
-                tx, tag, status = args
-                assert isinstance(tx, XBeeModule) and isinstance(tag, int) and isinstance(status, TxStatus)
-                tx.air_tx_done(tag, status, t)
 
     def take_events(self) -> list[DeviceEvent]:
         """Drain delivery/failure events."""

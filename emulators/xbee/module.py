@@ -14,7 +14,7 @@ over the packets to transmit, :meth:`accepts`/:meth:`air_receive` deliver incomi
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum, auto
+from enum import Enum, auto, unique
 
 import numpy as np
 
@@ -27,6 +27,16 @@ from emulators.xbee.registers import REGISTERS, Registers, RegKind
 NS_PER_MS = 1_000_000
 NS_PER_S = 1_000_000_000
 NO_16BIT = 0xFFFE  # MY = 0xFFFE/0xFFFF: the module sends with its 64-bit address
+REMOTE_APPLY = 0x02  # remote AT option: apply changes
+
+
+@unique
+class RfKind(Enum):
+    """What an RF packet carries."""
+
+    DATA = auto()
+    REMOTE_AT_REQUEST = auto()  # payload: frame id, options, command (2), parameter
+    REMOTE_AT_RESPONSE = auto()  # payload: frame id, status, command (2), value
 
 
 @dataclass(frozen=True)
@@ -46,6 +56,7 @@ class RfPacket:
     channel: int
     pan_id: int
     tag: int
+    kind: RfKind = RfKind.DATA
 
     @property
     def broadcast(self) -> bool:
@@ -87,6 +98,8 @@ class XBeeModule(ByteDevice):
         self._parser = ApiParser(escaped=self.ap == 2)
         self._air_tx: list[RfPacket] = []
         self._tag_frame_id: dict[int, int] = {}
+        #: tag of an outgoing remote AT request -> (frame id, command, dest64, dest16)
+        self._tag_remote: dict[int, tuple[int, bytes, int, int]] = {}
         self._next_tag = 1
         self._baud_ok = True
         self._t_ns = 0
@@ -202,25 +215,43 @@ class XBeeModule(ByteDevice):
             if name == "FR" and status == AtStatus.OK:
                 self.reset(t_ns)
                 self._send_frame(fr.modem_status(ModemStatus.WATCHDOG_RESET))
+        elif kind == FrameType.REMOTE_AT_COMMAND and len(fd) >= 15:
+            self._remote_at_request(fd, t_ns)
         else:
             self.counters["api_frames_unsupported"] += 1
+
+    def _remote_at_request(self, fd: bytes, t_ns: int) -> None:
+        frame_id, options, command, param = fd[1], fd[12], fd[13:15], fd[15:]
+        dest64, dest16 = int.from_bytes(fd[2:10], "big"), int.from_bytes(fd[10:12], "big")
+        # 802.15.4: a known 16-bit address wins; 0xFFFE means "use the 64-bit one".
+        addr16, addr64 = (dest16, None) if dest16 != NO_16BIT else (None, dest64)
+        tag = self._queue_air(bytes((frame_id, options)) + command + param, addr16, addr64, ack=True,
+                              broadcast_pan=False, t_ns=t_ns, kind=RfKind.REMOTE_AT_REQUEST)
+        self._tag_remote[tag] = (frame_id, command, dest64, dest16)
+        self.counters["remote_at_out"] += 1
+
+    def _queue_air(self, payload: bytes, dest16: int | None, dest64: int | None, *, ack: bool,
+                   broadcast_pan: bool, t_ns: int, kind: RfKind = RfKind.DATA) -> int:
+        my = self.address16
+        tag = self._next_tag
+        self._next_tag += 1
+        self._air_tx.append(RfPacket(
+            t_ns, NO_16BIT if my >= NO_16BIT else my, self.address64, dest16, dest64, bytes(payload), ack,
+            broadcast_pan, self.regs.num("CH"), self.regs.num("ID"), tag, kind))
+        return tag
 
     def _transmit(self, payload: bytes, dest16: int | None, dest64: int | None, options: int,
                   frame_id: int, t_ns: int) -> None:
         if len(payload) > self.params.max_payload:
             self.counters["tx_oversize"] += 1
             return
-        my = self.address16
         mm = self.regs.num("MM")
         broadcast = dest16 == fr.BROADCAST_16 or dest64 == fr.BROADCAST_64
         ack = not broadcast and not options & TxOption.DISABLE_ACK and mm in (0, 2)
-        tag = self._next_tag
-        self._next_tag += 1
+        tag = self._queue_air(payload, dest16, dest64, ack=ack, broadcast_pan=bool(options & TxOption.BROADCAST_PAN),
+                              t_ns=t_ns)
         if frame_id:
             self._tag_frame_id[tag] = frame_id
-        self._air_tx.append(RfPacket(
-            t_ns, NO_16BIT if my >= NO_16BIT else my, self.address64, dest16, dest64, bytes(payload), ack,
-            bool(options & TxOption.BROADCAST_PAN), self.regs.num("CH"), self.regs.num("ID"), tag))
         self.counters["rf_packets_out"] += 1
 
     # -- air side ------------------------------------------------------------------------
@@ -242,6 +273,14 @@ class XBeeModule(ByteDevice):
     def air_receive(self, pkt: RfPacket, t_ns: int, rssi_dbm: float) -> None:
         """Deliver a received packet to the host."""
         self.regs.values["DB"] = min(0xFF, max(0, int(round(-rssi_dbm))))
+        if pkt.kind is RfKind.REMOTE_AT_REQUEST:
+            self._remote_at_execute(pkt, t_ns)
+            return
+        if pkt.kind is RfKind.REMOTE_AT_RESPONSE:
+            if self.ap and self._baud_ok and len(pkt.payload) >= 4 and pkt.payload[0]:
+                p = pkt.payload
+                self._send_frame(fr.remote_at_response(p[0], pkt.src64, pkt.src16, p[2:4], p[1], p[4:]))
+            return
         self.counters["rf_packets_in"] += 1
         if not self._baud_ok:
             return
@@ -255,8 +294,27 @@ class XBeeModule(ByteDevice):
         else:
             self._send(pkt.payload)
 
+    def _remote_at_execute(self, pkt: RfPacket, t_ns: int) -> None:
+        """Run a remote AT command from another module and send the answer back over the air."""
+        p = pkt.payload
+        if len(p) < 4:
+            self.counters["remote_at_malformed"] += 1
+            return
+        name = p[2:4].decode("ascii", "replace").upper()
+        status, value = self._at(name, p[4:] if len(p) > 4 else None, t_ns,
+                                 apply_now=bool(p[1] & REMOTE_APPLY), via="remote")
+        back16, back64 = (pkt.src16, None) if pkt.src16 != NO_16BIT else (None, pkt.src64)
+        self._queue_air(bytes((p[0], int(status))) + p[2:4] + value, back16, back64, ack=True,
+                        broadcast_pan=False, t_ns=t_ns, kind=RfKind.REMOTE_AT_RESPONSE)
+
     def air_tx_done(self, tag: int, status: TxStatus, t_ns: int) -> None:
         """The radio finished with our packet ``tag``: report it if the host asked (API)."""
+        remote = self._tag_remote.pop(tag, None)
+        if remote is not None:
+            frame_id, command, dest64, dest16 = remote
+            if status != TxStatus.SUCCESS and frame_id and self.ap and self._baud_ok:
+                self._send_frame(fr.remote_at_response(frame_id, dest64, dest16, command, AtStatus.REMOTE_FAILED))
+            return
         frame_id = self._tag_frame_id.pop(tag, 0)
         if status != TxStatus.SUCCESS:
             self.counters["tx_failed"] += 1

@@ -252,3 +252,31 @@ def test_api_to_transparent_receiver() -> None:
 @pytest.mark.parametrize("bd,baud", [(0, 1200), (3, 9600), (7, 115200), (250000, 250000)])
 def test_bd_codes(bd: int, baud: int) -> None:
     assert XBeeModule(XBeeParams(bd=bd), np.random.default_rng(0)).baud == baud
+
+
+def test_remote_at_command_round_trip() -> None:
+    from emulators.xbee.frames import remote_at_command
+
+    v, g, link = pair()
+    # digi-xbee's lookup of a 16-bit-only sender: SH of 0x0001, 64-bit address unknown.
+    g.receive(encode_frame(remote_at_command(9, 0xFFFFFFFFFFFFFFFF, 0x0001, "SH", options=0)), 0)
+    link.advance(50 * MS)
+    (resp,) = frames_of(g)
+    assert resp[0] == FrameType.REMOTE_AT_RESPONSE and resp[1] == 9
+    assert int.from_bytes(resp[2:10], "big") == v.address64 and resp[10:12] == b"\x00\x01"
+    assert resp[12:14] == b"SH" and resp[14] == AtStatus.OK and resp[15:] == b"\x00\x13\xa2\x00"
+    assert v.take_output() == b""  # the remote host sees nothing
+    # A remote set with "apply" changes the vehicle module.
+    g.receive(encode_frame(remote_at_command(10, v.address64, 0xFFFE, "NI", b"QUAD")), 50 * MS)
+    link.advance(100 * MS)
+    assert frames_of(g)[0][14] == AtStatus.OK and v.regs.get("NI") == "QUAD"
+
+
+def test_remote_at_to_nobody_reports_failure() -> None:
+    from emulators.xbee.frames import remote_at_command
+
+    v, g, link = pair()
+    g.receive(encode_frame(remote_at_command(3, 0xFFFFFFFFFFFFFFFF, 0x0BAD, "SH")), 0)
+    link.advance(1000 * MS)
+    (resp,) = frames_of(g)
+    assert resp[0] == FrameType.REMOTE_AT_RESPONSE and resp[14] == AtStatus.REMOTE_FAILED
