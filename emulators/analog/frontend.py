@@ -105,7 +105,9 @@ class AnalogFrontEnd:
         dt_s = (t_ns - self._t_ns) * 1e-9
         for ch, sig in enumerate(self._sig):
             if sig is not None:
-                self._x2[ch] = two_stage(self._x1[sig], self._x2[ch], u[sig], self._tau_sensor[sig], self._tau_rc[ch], dt_s)
+                self._x2[ch] = two_stage(
+                    self._x1[sig], self._x2[ch], u[sig], self._tau_sensor[sig], self._tau_rc[ch], dt_s
+                )
         for sig in range(4):
             self._x1[sig] = first_order(self._x1[sig], u[sig], self._tau_sensor[sig], dt_s)
         self._u = u
@@ -163,7 +165,8 @@ class AnalogFrontEnd:
         saturate: bool = False,
     ) -> None:
         """Accelerometer fault (all axes), from the next update."""
-        self.accel_fault = AccelFault(tuple(bias_mps2), scale, noise_factor, frozen, saturate)  # type: ignore[arg-type]
+        bias = (float(bias_mps2[0]), float(bias_mps2[1]), float(bias_mps2[2]))
+        self.accel_fault = AccelFault(bias, scale, noise_factor, frozen, saturate)
         for sig in (1, 2, 3):
             self._unfreeze(sig, frozen)
 

@@ -47,9 +47,8 @@ def quiet_chain() -> tuple[Mcp3204, AnalogFrontEnd]:
         noise_density_ug_per_rtHz_at_3V=(0.0, 0.0, 0.0),
     )
     base = AnalogParams(baro=Mpx5100apParams(unit_error_kPa=0.0, noise_V_rms=0.0), accel=accel)
-    params = dataclasses.replace(
-        base, conditioning=tuple(dataclasses.replace(c, noise_V_rms=0.0) for c in base.conditioning)  # type: ignore[arg-type]
-    )
+    silent = tuple(dataclasses.replace(c, noise_V_rms=0.0) for c in base.conditioning)
+    params = dataclasses.replace(base, conditioning=silent)  # type: ignore[arg-type]
     fe = AnalogFrontEnd(params, np.random.default_rng(0))
     fe.update(0, P_FIELD_PA, REST, 25.0)
     return Mcp3204(Mcp3204Params(), fe.volts), fe

@@ -34,5 +34,6 @@ def test_doc_worked_examples() -> None:
     rows = re.findall(r"^\| (\d+) \| ([\d ]+\.\d)", text, re.M)
     assert len(rows) == 4
     for code, pa in rows:
-        assert pressure_Pa_from_code(int(code), AnalogParams()) == pytest.approx(float(pa.replace(" ", "")), abs=0.05)
+        expected_Pa = float(pa.replace(" ", ""))
+        assert pressure_Pa_from_code(int(code), AnalogParams()) == pytest.approx(expected_Pa, abs=0.05)
     assert f_B_mps2_from_codes((1351, 1351, 1622), AnalogParams()) == pytest.approx([0, 0, -9.81], abs=0.04)
