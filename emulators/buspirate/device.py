@@ -10,7 +10,9 @@ which the firmware reads the would-be data bytes as commands, as here).
 Lines: in SPI mode the outputs start open-drain (HiZ); they can drive the MCP3204 only when
 push-pull is configured (0x8x with w = 1), the pull-ups are on (0x4x with x = 1), or the
 target board has its own pull-ups (params). Undriven, the part sees no edges and MISO reads
-the floating level (0 without pull-ups).
+the floating level (0 without pull-ups). CKP/CKE select the SPI mode of the exchange; SMP
+(sample at the end of the bit) changes nothing here: the MCP3204's DOUT still holds the old
+bit at that edge.
 """
 
 from __future__ import annotations
