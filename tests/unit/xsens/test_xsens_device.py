@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import struct
 
+import numpy as np
 import pytest
 
 from emulators.xsens.codec import Frame, encode_frame
@@ -359,3 +360,51 @@ def test_mk4_legacy_mode_streams_mtdata_until_an_output_configuration_is_set() -
     assert h.send(MID.GOTO_CONFIG, t_ns=60_000_000)[-1] == Frame(MID.GOTO_CONFIG_ACK)  # after the 60 ms sample
     _set_config(h, [(0x2030, 100)])
     assert Configuration.unpack(h.ask(MID.REQ_CONFIGURATION).payload).output_mode == 0
+
+
+# -- the same exchange fed whole, byte by byte, and with garbage ------------------------------------
+
+MT_MANAGER_SEQUENCE = ["GoToConfig", "SetStringOutputType 0", "SetOutputConfiguration (MT Manager, 12 entries)",
+                       "InitMT", "ReqConfiguration", "ReqFWRev", "ReqAvailableFilterProfiles", "ReqEMTS",
+                       "ReqAvailableFilterProfiles", "GoToMeasurement"]
+GARBAGE = [b"\x00", b"\x13\x37", b"\xfa\xff\x30\x00\x00", b"junk", b"\xff\xff\xff"]
+
+
+def _replies(chunks: list[bytes]) -> bytes:
+    h = mk4()
+    for chunk in chunks:
+        h.dev.receive(chunk, BOOT)
+    return h.dev.take_output()
+
+
+@pytest.mark.parametrize("feeding", ["whole", "byte_by_byte", "garbage_between_and_trailing"])
+def test_device_answers_the_same_however_the_bytes_arrive(feeding: str) -> None:
+    frames = [hexb(frame(name)["hex"]) for name in MT_MANAGER_SEQUENCE]
+    reference = _replies(frames)
+    if feeding == "whole":
+        chunks = [b"".join(frames)]
+    elif feeding == "byte_by_byte":
+        chunks = [bytes((b,)) for b in b"".join(frames)]
+    else:
+        chunks = [GARBAGE[i % len(GARBAGE)] + f for i, f in enumerate(frames)] + [b"\xfa\xff\x10"]
+    assert _replies(chunks) == reference
+    assert len(reference) > 1500  # the replies include the 1327-byte eMTS frame
+
+
+def test_bad_input_while_measuring_is_counted_and_streaming_goes_on() -> None:
+    h = mk4()
+    rng = np.random.default_rng(5)
+    t = 0
+    for k in range(40):
+        t = k * 2_500_000 + 1_000_000
+        junk = rng.integers(0, 256, size=int(rng.integers(1, 30)), dtype=np.uint8).tobytes().replace(b"\xfa", b"")
+        h.dev.receive(junk, t)
+        h.dev.receive(b"\xfa\xff\x30\xff\x7f\xff", t)  # oversized extended length
+        h.dev.receive(encode_frame(MID.SET_OUTPUT_MODE, b"\x00\x04"), t)  # config-only while measuring
+    frames = h.frames()
+    later = h.advance(1_000_000_000)
+    data = [f for f in frames + later if f.mid == MID.MTDATA2]
+    assert len(data) == 101 and h.dev.measuring
+    assert [f for f in frames if f.mid == MID.ERROR] == [ERR_04] * 40
+    c = h.dev.counters
+    assert c["oversize_frames"] == 40 and c["wrong_state"] == 40 and c["resync_bytes"] > 0
