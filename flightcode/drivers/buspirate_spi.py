@@ -190,9 +190,14 @@ class BusPirateSpi:
         A short or malformed reply is counted (``short``/``bad_ack``), the input flushed
         and the bridge marked out of sync (the caller decides when to :meth:`resync`).
         """
-        self.port.write(encode_transfers(frames))
-        reply = self.port.read(reply_length(frames))
-        result = decode_transfers(reply, [len(f) for f in frames])
+        return self.transfer_encoded(encode_transfers(frames), [len(f) for f in frames])
+
+    def transfer_encoded(self, wire: bytes, lengths: Sequence[int]) -> list[bytes] | None:
+        """:meth:`transfer` with the write already built by :func:`encode_transfers` (the
+        per-tick path: the same four conversions every sample)."""
+        self.port.write(wire)
+        reply = self.port.read(sum(n + 3 for n in lengths))
+        result = decode_transfers(reply, lengths)
         if isinstance(result, str):
             self.counters[result] += 1
             self.in_sync = False

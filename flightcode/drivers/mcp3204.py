@@ -24,7 +24,7 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Sequence
 
-from flightcode.drivers.buspirate_spi import BusPirateSpi
+from flightcode.drivers.buspirate_spi import BusPirateSpi, encode_transfers
 
 RESOLUTION_CODES = 4096
 START_BIT = 0x04
@@ -63,6 +63,8 @@ class Mcp3204Reader:
         self.bridge = bridge
         self.channels = tuple(channels)
         self._frames = [request(ch) for ch in self.channels]
+        self._wire = encode_transfers(self._frames)
+        self._lengths = [len(f) for f in self._frames]
         self.resync_interval_ns = resync_interval_ns
         self.resync_timeout_s = resync_timeout_s
         self.counters: Counter[str] = Counter()
@@ -78,7 +80,7 @@ class Mcp3204Reader:
             if not bridge.resync(self.resync_timeout_s):
                 self._next_resync_ns = t_ns + self.resync_interval_ns
                 return None
-        replies = bridge.transfer(self._frames)
+        replies = bridge.transfer_encoded(self._wire, self._lengths)
         if replies is None:
             self.counters["failed_reads"] += 1
             self._next_resync_ns = None  # re-enter at the next tick
