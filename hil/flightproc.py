@@ -107,6 +107,34 @@ class FlightProcess:
             self.killed_by_bench = True
             self.proc.kill()
 
+    async def restart(self, extra_env: dict[str, str] | None = None, *, resume: asyncio.Event | None = None) -> None:
+        """Kill the flight code (if it runs) and start the same argv again.
+
+        A restart is not an exit: the ``exited`` event the bench waits on is not set for the
+        killed process (its watcher reports to a private event meanwhile). ``resume``: wait
+        for it between the kill and the new start (the fault's downtime). Cancelled before
+        the new start, the flight code stays dead and ``exited`` is set.
+        """
+        real = self.exited
+        gone = asyncio.Event()
+        if self.proc is not None and not real.is_set():
+            self.exited = gone  # the old process's _watch sets this one
+            if self.running:
+                self.proc.kill()
+        else:
+            gone.set()
+        try:
+            await gone.wait()
+            if resume is not None:
+                await resume.wait()
+        except asyncio.CancelledError:
+            self.exited = real
+            real.set()
+            raise
+        self.exited = real
+        real.clear()
+        await self.start(extra_env)
+
     async def stop(self, timeout_s: float = 3.0) -> int | None:
         """SIGTERM, then SIGKILL after ``timeout_s``; returns the exit status."""
         if self.proc is None:

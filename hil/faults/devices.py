@@ -1,0 +1,342 @@
+"""Device faults: the XSENS, the RC receiver, the ESCs, the telemetry radio link.
+
+They use the emulators' fault hooks: ``MtiDevice.set_silenced / power_cycle /
+jump_packet_counter``; ``PpmGenerator.inject_glitch / set_channel_count / set_stuck`` (and
+the stick script's ``signal_present`` for loss, see env.RcLossGate); ``Esc.set_refuse_arm
+/ set_desync / set_stuck``; ``RadioLink.set_loss_probability``. RC faults act on the PPM
+train, upstream of the front-end, so they apply to capture and SBUS rigs alike.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import Field
+
+from hil.faults.base import NS_PER_S, Fault, FaultParams, Layer, NoParams, Refused, Timing
+
+ESC_HELP = "ESC index 0..3 (Maestro channel i, drives rotor i)"
+
+
+# -- XSENS ----------------------------------------------------------------------------------------
+class ImuSilence(Fault):
+    """The XSENS stops streaming (a cut line inside the device): no data messages; it keeps
+    counting, so the packet counter jumps when data return."""
+
+    kind = "imu.silence"
+    layer = Layer.DEVICE
+    Params = NoParams
+
+    @classmethod
+    def target_of(cls, params: Any) -> str:
+        return "imu"
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        self.env.imu_silence.add(self, t_ns)
+        return {"streaming": False}
+
+    def revert(self, t_ns: int) -> dict[str, Any]:
+        self.env.imu_silence.remove(self, t_ns)
+        return {"streaming": not self.env.imu_silence.items}
+
+
+class ImuReset(Fault):
+    """The XSENS resets (brown-out): power cycle at t_s, WakeUp, then the stored configuration
+    (turn-on errors drawn again, counters cleared)."""
+
+    kind = "imu.reset"
+    layer = Layer.DEVICE
+    timing = Timing.INSTANT
+    Params = NoParams
+
+    @classmethod
+    def target_of(cls, params: Any) -> str:
+        return "imu"
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        imu = self.env.devices.imu
+        before = imu.state.name
+        imu.power_cycle(t_ns)
+        return {"state_before": before, "state": imu.state.name}
+
+
+class CounterJumpParams(FaultParams):
+    delta: int = Field(default=100, ge=1, le=0xFFFF, description="added to the packet/sample counter (mod 2^16)")
+
+
+class ImuCounterJump(Fault):
+    """The XSENS packet counter (legacy: sample counter) jumps by ``delta``."""
+
+    kind = "imu.counter_jump"
+    layer = Layer.DEVICE
+    timing = Timing.INSTANT
+    Params = CounterJumpParams
+
+    @classmethod
+    def target_of(cls, params: Any) -> str:
+        return "imu"
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        self.env.devices.imu.jump_packet_counter(self.params.delta)
+        return {"delta": self.params.delta}
+
+
+# -- RC -------------------------------------------------------------------------------------------
+def _check_channel(channel: int, rig: Any) -> None:
+    n = rig.rc.ppm.n_channels
+    if not 1 <= channel <= n:
+        raise Refused("channel", f"this rig's receiver sends {n} channels (1..{n})")
+
+
+class RcSignalLoss(Fault):
+    """The receiver stops sending PPM (out of range, transmitter off): no pulses for frames
+    starting in [t_s, t_s + duration_s)."""
+
+    kind = "rc.signal_loss"
+    layer = Layer.DEVICE
+    Params = NoParams
+
+    @classmethod
+    def target_of(cls, params: Any) -> str:
+        return "rc"
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        self.window = self.env.rc_gate.open(self.t_start_ns, self.end_ns)
+        return {"ppm": "lost"}
+
+    def revert(self, t_ns: int) -> dict[str, Any]:
+        self.env.rc_gate.close(self.window, t_ns)
+        return {"ppm": "back"}
+
+
+class GlitchParams(FaultParams):
+    channel: int = Field(default=3, ge=1, le=16, description="channel (1-based) whose slot gets the extra pulse")
+    width_us: int = Field(default=20, ge=1, le=500, description="width of the glitch pulse, us")
+    interval_s: float = Field(
+        default=0.0225, gt=0.0, description="with duration_s: one glitch every interval_s (22.5 ms = every frame)"
+    )
+
+
+class RcGlitch(Fault):
+    """Glitch pulses on the PPM line: an extra pulse splits a channel in two. Without
+    duration_s one glitch (the first frame at or after t_s), else one every interval_s."""
+
+    kind = "rc.glitch"
+    layer = Layer.DEVICE
+    Params = GlitchParams
+
+    @classmethod
+    def check(cls, params: Any, rig: Any) -> None:
+        _check_channel(params.channel, rig)
+        ppm = rig.rc.ppm
+        # The generator only inserts a glitch that fits inside the slot with margin
+        # (emulators/rc/ppm.py); check against the shortest slot, a 1000 us channel.
+        need_us = params.width_us + 2 * ppm.jitter_clip_us + 2
+        if need_us >= 1000 - ppm.separator_us:
+            raise Refused("width_us", f"does not fit in a 1000 us channel slot after the {ppm.separator_us} us separator")
+
+    @classmethod
+    def target_of(cls, params: Any) -> str:
+        return f"rc ch{params.channel}"
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        self.next_ns = self.t_start_ns
+        self.count = 0
+        self._inject(t_ns)
+        return {"channel": self.params.channel, "width_us": self.params.width_us}
+
+    def update(self, t_ns: int) -> None:
+        self._inject(t_ns)
+
+    def _inject(self, t_ns: int) -> None:
+        if self.end_ns is None and self.count:
+            return  # a single glitch
+        step = int(round(self.params.interval_s * NS_PER_S))
+        while self.next_ns <= t_ns and (self.end_ns is None or self.next_ns < self.end_ns):
+            self.env.devices.ppm.inject_glitch(self.next_ns, self.params.width_us, self.params.channel)
+            self.count += 1
+            self.next_ns += step
+            if self.end_ns is None:
+                return
+
+    def revert(self, t_ns: int) -> dict[str, Any]:
+        return {"glitches": self.count}
+
+
+class ChannelCountParams(FaultParams):
+    n_channels: int = Field(ge=1, le=16, description="channels per PPM frame while the fault lasts")
+
+
+class RcChannelCount(Fault):
+    """The receiver sends a different number of channels (wrong receiver mode/binding)."""
+
+    kind = "rc.channel_count"
+    layer = Layer.DEVICE
+    Params = ChannelCountParams
+
+    @classmethod
+    def check(cls, params: Any, rig: Any) -> None:
+        if params.n_channels == rig.rc.ppm.n_channels:
+            raise Refused("n_channels", f"this rig already sends {params.n_channels} channels")
+
+    @classmethod
+    def target_of(cls, params: Any) -> str:
+        return "rc"
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        self.env.devices.ppm.set_channel_count(self.t_start_ns, self.params.n_channels)
+        return {"n_channels": self.params.n_channels}
+
+    def revert(self, t_ns: int) -> dict[str, Any]:
+        n = self.env.devices.rig.rc.ppm.n_channels
+        self.env.devices.ppm.set_channel_count(self.exact_end(t_ns), n)
+        return {"n_channels": n}
+
+
+class ChannelStuckParams(FaultParams):
+    channel: int = Field(ge=1, le=16, description="channel (1-based)")
+    pulse_us: int | None = Field(
+        default=None, ge=800, le=2200, description="stuck width, us; omitted: the value at t_s"
+    )
+
+
+class RcChannelStuck(Fault):
+    """One RC channel is stuck (a broken stick pot, a frozen encoder)."""
+
+    kind = "rc.channel_stuck"
+    layer = Layer.DEVICE
+    Params = ChannelStuckParams
+
+    @classmethod
+    def check(cls, params: Any, rig: Any) -> None:
+        _check_channel(params.channel, rig)
+
+    @classmethod
+    def target_of(cls, params: Any) -> str:
+        return f"rc ch{params.channel}"
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        ppm = self.env.devices.ppm
+        ch = self.params.channel
+        pulse = self.params.pulse_us
+        if pulse is None:
+            pulse = int(round(ppm.script.value_us(ch, self.t_start_ns)))
+        ppm.set_stuck(self.t_start_ns, ch, pulse)
+        return {"channel": ch, "pulse_us": pulse}
+
+    def revert(self, t_ns: int) -> dict[str, Any]:
+        self.env.devices.ppm.set_stuck(self.exact_end(t_ns), self.params.channel, None)
+        return {"channel": self.params.channel, "pulse_us": None}
+
+
+# -- ESC ------------------------------------------------------------------------------------------
+class EscParams(FaultParams):
+    esc: int = Field(ge=0, le=3, description=ESC_HELP)
+
+
+class _EscFault(Fault):
+    layer = Layer.DEVICE
+
+    @classmethod
+    def target_of(cls, params: Any) -> str:
+        return f"esc {params.esc}"
+
+    @property
+    def esc(self) -> int:
+        return int(self.params.esc)
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        self.env.escs.add(self, t_ns)
+        return self.params.model_dump()
+
+    def revert(self, t_ns: int) -> dict[str, Any]:
+        self.env.escs.remove(self, t_ns)
+        return {"esc": self.esc, "armed": self.env.devices.escs[self.esc].armed}
+
+
+class EscRefuseArm(_EscFault):
+    """An ESC does not arm (failed calibration, wrong throttle range): the motor stays off
+    while the fault lasts, and an ESC that armed before is unaffected."""
+
+    kind = "esc.refuse_arm"
+    Params = EscParams
+    refuse_arm = True
+
+
+class DesyncParams(FaultParams):
+    esc: int = Field(ge=0, le=3, description=ESC_HELP)
+    rate_hz: float = Field(default=2.0, gt=0.0, le=100.0, description="mean rate of desyncs (Poisson), 1/s")
+
+
+class EscDesync(_EscFault):
+    """Sporadic desyncs: thrust drops to zero for the ESC's desync_duration_s at random
+    times (seeded by the ESC's generator)."""
+
+    kind = "esc.desync"
+    Params = DesyncParams
+
+    @property
+    def desync_rate_hz(self) -> float:
+        return float(self.params.rate_hz)
+
+
+class EscStuckParams(FaultParams):
+    esc: int = Field(ge=0, le=3, description=ESC_HELP)
+    throttle: float | None = Field(default=None, ge=0.0, le=1.0, description="stuck throttle 0..1; omitted: its value at t_s")
+
+
+class EscStuck(_EscFault):
+    """An ESC's output is stuck (ignores its input)."""
+
+    kind = "esc.stuck"
+    Params = EscStuckParams
+
+    @property
+    def stuck_throttle(self) -> float | None:
+        return self.params.throttle
+
+
+# -- telemetry link ---------------------------------------------------------------------------------
+class TelemetryDropout(Fault):
+    """The radio link drops out (out of range): every transmission attempt is lost."""
+
+    kind = "telemetry.dropout"
+    layer = Layer.LINK
+    Params = NoParams
+    loss_probability = 1.0
+
+    @classmethod
+    def target_of(cls, params: Any) -> str:
+        return "telemetry link"
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        self.env.link_loss.add(self, t_ns)
+        return {"loss_probability": self.env.link_loss.combined()}
+
+    def revert(self, t_ns: int) -> dict[str, Any]:
+        self.env.link_loss.remove(self, t_ns)
+        return {"loss_probability": self.env.link_loss.combined()}
+
+
+class LossParams(FaultParams):
+    loss_probability: float = Field(gt=0.0, lt=1.0, description="probability that one transmission attempt is lost")
+
+
+class TelemetryLoss(TelemetryDropout):
+    """Packet loss on the radio link (interference): each attempt is lost with this probability
+    (acknowledged packets are retried by the MAC as usual)."""
+
+    kind = "telemetry.loss"
+    Params = LossParams
+
+    @property  # type: ignore[override]
+    def loss_probability(self) -> float:
+        return float(self.params.loss_probability)
+
+
+FAULTS: tuple[type[Fault], ...] = (
+    ImuSilence, ImuReset, ImuCounterJump,
+    RcSignalLoss, RcGlitch, RcChannelCount, RcChannelStuck,
+    EscRefuseArm, EscDesync, EscStuck,
+    TelemetryDropout, TelemetryLoss,
+)
