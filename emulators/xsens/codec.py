@@ -102,16 +102,17 @@ class FrameParser:
         return len(self._buf)
 
     def feed(self, data: bytes, t_ns: int = 0) -> list[Frame]:
-        if self._buf and self.timeout_ns > 0 and self._last_rx_ns is not None:
-            if t_ns - self._last_rx_ns > self.timeout_ns:
-                self.stats.timeouts += 1
-                self.reset()
+        last = self._last_rx_ns
+        if self._buf and self.timeout_ns > 0 and last is not None and t_ns - last > self.timeout_ns:
+            self.stats.timeouts += 1
+            self.reset()
         self._last_rx_ns = t_ns
         self._buf += data
         return self._extract()
 
     def _extract(self) -> list[Frame]:
-        buf, stats, frames = self._buf, self.stats, []
+        buf, stats = self._buf, self.stats
+        frames: list[Frame] = []
         while True:
             start = buf.find(PREAMBLE)
             if start < 0:

@@ -10,19 +10,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 from emulators.xsens.defs import BAUD_BPS_BY_CODE
 
 
-class Identity(str, Enum):
+class Identity(StrEnum):
     """Which device the emulator is."""
 
     MK4 = "mk4"
     LEGACY = "legacy"
 
 
-class PowerUp(str, Enum):
+class PowerUp(StrEnum):
     """State the constructor leaves the device in."""
 
     #: Measurement with the stored configuration, no WakeUp sent (clients do not expect

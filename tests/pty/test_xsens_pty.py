@@ -23,11 +23,13 @@ import struct
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 import serial
 
+from emulators.base import DeviceEvent
 from emulators.xsens import MtiDevice, SampleSent, State, XsensParams
 from emulators.xsens.params import Identity
 from hil.transport import LineSettings, PtyPort
@@ -51,12 +53,12 @@ class Glue:
         self.measuring = asyncio.Event()
         self.rx = asyncio.Event()
         self.read_acks: asyncio.Queue[int] = asyncio.Queue()
-        self.events: list[object] = []
+        self.events: list[DeviceEvent] = []
         self.loop = asyncio.get_running_loop()
         port.on_data = self._on_data
         port.on_line = self._on_line
 
-    def _flush(self) -> list[object]:
+    def _flush(self) -> list[DeviceEvent]:
         out = self.dev.take_output()
         if out:
             self.port.write(out)
@@ -205,7 +207,7 @@ def encode_config(entries: tuple[tuple[int, int], ...]) -> bytes:
 
 # -- (a) ethz-style Python driver ----------------------------------------------------------------
 
-def ethz_style_session(path: str, n_samples: int, signal: Signal) -> dict[str, object]:
+def ethz_style_session(path: str, n_samples: int, signal: Signal) -> dict[str, Any]:
     c = XbusClient(path, 921_600, timeout_s=0.002)  # the driver's default timeout
     try:
         c.ser.reset_input_buffer()
@@ -228,7 +230,7 @@ def ethz_style_session(path: str, n_samples: int, signal: Signal) -> dict[str, o
             "!IHHHHI8s8s32x32xHIHHI8x", config)  # raises unless exactly 118 bytes
         applied = write_ack(0xC0, encode_config(FLIGHT_CONFIG))
         write_ack(0x10)  # GoToMeasurement
-        samples = []
+        samples: list[Any] = []
         while len(samples) < n_samples:
             mid, payload = c.read_msg()
             assert mid == 0x36, f"unknown data message: mid=0x{mid:02X}"  # ethz raises here too
@@ -260,7 +262,7 @@ async def test_ethz_style_handshake_and_stream(dev_dir: Path) -> None:
 
 # -- (b) XDA (vendor SDK) scan + device init + ROS driver configuration --------------------------
 
-def xda_style_session(path: str, n_samples: int, signal: Signal) -> dict[str, object]:
+def xda_style_session(path: str, n_samples: int, signal: Signal) -> dict[str, Any]:
     c = XbusClient(path, 921_600)
     try:
         c.transact(0x30)  # GoToConfig (scan)
@@ -279,7 +281,9 @@ def xda_style_session(path: str, n_samples: int, signal: Signal) -> dict[str, ob
         assert c.transact(0x8E, b"\x00\x00") == b""  # SetStringOutputType 0 (non-600 devices)
         applied = c.transact(0xC0, encode_config(FLIGHT_CONFIG))
         c.transact(0x10)  # GoToMeasurement
-        counters, stf, raw_checksums_ok = [], [], 0
+        counters: list[int] = []
+        stf: list[int] = []
+        raw_checksums_ok = 0
         while len(counters) < n_samples:
             mid, payload = c.read_msg()
             assert mid == 0x36
@@ -310,8 +314,8 @@ async def test_xda_style_scan_init_and_400_samples_at_400_hz(dev_dir: Path) -> N
     assert result["applied"] == encode_config(FLIGHT_CONFIG)
     counters, stf = result["counters"], result["stf"]
     assert result["frames"] == n and result["bad"] == 0
-    assert all((b - a) & 0xFFFF == 1 for a, b in zip(counters, counters[1:]))
-    assert all((b - a) & 0xFFFF_FFFF == 25 for a, b in zip(stf, stf[1:]))
+    assert all((b - a) & 0xFFFF == 1 for a, b in zip(counters, counters[1:], strict=False))
+    assert all((b - a) & 0xFFFF_FFFF == 25 for a, b in zip(stf, stf[1:], strict=False))
     assert dev.counters["samples_sent"] == n and dev.counters["overruns"] == 0
 
 
@@ -321,7 +325,7 @@ LEGACY_MODE = 0x0006  # calibrated + orientation
 LEGACY_SETTINGS = 0x0000_0005  # sample counter, Euler
 
 
-def ozymandium_style_session(path: str, n_samples: int, signal: Signal) -> dict[str, object]:
+def ozymandium_style_session(path: str, n_samples: int, signal: Signal) -> dict[str, Any]:
     c = XbusClient(path, 921_600)
     try:
         c.transact(0x30)
@@ -331,7 +335,7 @@ def ozymandium_style_session(path: str, n_samples: int, signal: Signal) -> dict[
         settings_ = struct.unpack(">I", c.transact(0xD2))[0]
         c.transact(0x10)
         n_floats = (9 if mode & 0x2 else 0) + (3 if mode & 0x4 else 0)
-        samples = []
+        samples: list[Any] = []
         while len(samples) < n_samples:
             mid, payload = c.read_msg()
             assert mid == 0x32 and len(payload) == 4 * n_floats + 2
@@ -359,7 +363,7 @@ async def test_legacy_mti_ozymandium_style(dev_dir: Path) -> None:
 
 # -- bad input over the wire ---------------------------------------------------------------------
 
-def garbage_session(path: str) -> dict[str, object]:
+def garbage_session(path: str) -> dict[str, Any]:
     c = XbusClient(path, 921_600)
     try:
         c.transact(0x30)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TypeVar
 
 import numpy as np
 
@@ -10,6 +11,8 @@ from emulators.base import DeviceEvent
 from emulators.xsens.codec import Frame, FrameParser, encode_frame
 from emulators.xsens.device import MtiDevice
 from emulators.xsens.params import XsensParams
+
+E = TypeVar("E", bound=DeviceEvent)
 
 #: Parameters without any sensor error, for exact value checks.
 EXACT = dict(
@@ -57,5 +60,5 @@ class Host:
         self.dev.advance(t_ns)
         return self.frames()
 
-    def of_type(self, kind: type) -> list[DeviceEvent]:
+    def of_type(self, kind: type[E]) -> list[E]:
         return [e for e in self.events if isinstance(e, kind)]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import struct
+from typing import Any
 
 import pytest
 from hypothesis import given, settings
@@ -138,7 +139,7 @@ def test_mti300_payload_decodes_to_the_listed_values_and_reencodes(vec: dict) ->
     payload = hexb(vec["payload_hex"])
     packets = unpack_packets(payload)
     assert pack_packets(packets) == payload
-    decoded = {}
+    decoded: dict[str, Any] = {}
     for xdi, data in packets:
         name = _NAMES[xdi]
         if name in ("PacketCounter", "SampleTimeFine", "BaroPressure", "StatusWord"):
