@@ -116,3 +116,11 @@ def test_adc_bin_centre() -> None:
     chain = AnalogChain(5.0, BaroChainParams(), AccelChainParams())
     assert chain.volts(0) == pytest.approx(0.5 * 5 / 4096)
     assert chain.volts(4095) == pytest.approx(4095.5 * 5 / 4096)
+
+
+def test_worked_examples_of_the_analog_chain_doc() -> None:
+    # docs/analog-chain.md section 4 and 5 (default rig, nominal parts).
+    chain = AnalogChain(5.0, BaroChainParams(), AccelChainParams())
+    assert chain.baro_pressure_Pa(2495) == pytest.approx(100_000.4, abs=0.1)
+    assert chain.baro_pressure_Pa(3276) == pytest.approx(101_324.5, abs=0.1)
+    assert chain.accel_B_mps2(1351, 1351, 1622) == pytest.approx((0.0, 0.0, -G), abs=0.03)
