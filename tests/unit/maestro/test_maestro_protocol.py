@@ -214,7 +214,7 @@ def test_uart_wrong_baud_is_signal_error() -> None:
 
 
 @given(st.binary(max_size=200))
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=150, deadline=None)
 def test_any_bytes_never_crash_and_resync(garbage: bytes) -> None:
     m = dev(crc_enabled=False)
     m.receive(garbage, 0)

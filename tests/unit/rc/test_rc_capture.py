@@ -106,7 +106,7 @@ def test_golden_widths_with_wrap() -> None:
 
 
 @given(st.integers(0, 255), st.booleans(), st.booleans(), st.integers(0, 0xFFFF))
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=150, deadline=None)
 def test_record_round_trip(seq: int, level: bool, overrun: bool, cap: int) -> None:
     rec = CaptureRecord(seq, level, overrun, cap)
     wire = pack_record(rec)
@@ -115,7 +115,7 @@ def test_record_round_trip(seq: int, level: bool, overrun: bool, cap: int) -> No
 
 
 @given(st.binary(min_size=6, max_size=6))
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=150, deadline=None)
 def test_unpack_rejects_corruption(data: bytes) -> None:
     rec = unpack_record(data)
     if rec is not None:

@@ -40,7 +40,7 @@ def test_flag_bits() -> None:
 
 @given(st.lists(st.integers(0, 0x7FF), min_size=16, max_size=16), st.booleans(), st.booleans(),
        st.booleans(), st.booleans(), st.integers(0, 255))
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=150, deadline=None)
 def test_round_trip(ch: list[int], c17: bool, c18: bool, lost: bool, fs: bool, end: int) -> None:
     frame = SbusFrame(tuple(ch), c17, c18, lost, fs, end)
     wire = pack_sbus(frame)
