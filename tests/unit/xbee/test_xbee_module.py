@@ -280,3 +280,18 @@ def test_remote_at_to_nobody_reports_failure() -> None:
     link.advance(1000 * MS)
     (resp,) = frames_of(g)
     assert resp[0] == FrameType.REMOTE_AT_RESPONSE and resp[14] == AtStatus.REMOTE_FAILED
+
+
+@pytest.mark.parametrize("ap", [1, 2])
+def test_module_byte_by_byte_with_garbage(ap: int) -> None:
+    v = XBeeModule(XBeeParams(ap=ap), np.random.default_rng(0))
+    frames = [at_command(i, cmd) for i, cmd in enumerate(["AP", "MY", "CH", "NI"], start=1)]
+    bad = bytearray(encode_frame(at_command(9, "SH"), escaped=ap == 2))
+    bad[-1] ^= 0x55  # bad checksum: dropped silently, like the module
+    stream = b"\x00garbage\x11" + bytes(bad) + b"".join(encode_frame(f, escaped=ap == 2) + b"\xff\x00" for f in frames)
+    for b in stream:
+        v.receive(bytes([b]), 0)
+    resp = ApiParser(escaped=ap == 2).feed(v.take_output())
+    assert [r[1] for r in resp] == [1, 2, 3, 4] and all(r[4] == AtStatus.OK for r in resp)
+    assert resp[0][5:] == bytes([ap]) and resp[3][5:] == b"VEHICLE"
+    assert v.counters["api_bad_checksum"] == 1
