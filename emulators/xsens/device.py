@@ -253,6 +253,8 @@ class MtiDevice(ByteDevice):
             self._transmit(t, encode_frame(MID.CONFIGURATION, self._commands.configuration(self._settings).pack()))
             self._transmit(t, encode_frame(MID.EMTS_DATA, self._commands.emts()))
         self._set_state(State.MEASUREMENT, t)
+        # Sampling starts once Configuration and eMTS have left the line (they come "first").
+        self._stream_after_ns = max(self._stream_after_ns, self._tx_free_ns - 1)
 
     # -- dispatch ---------------------------------------------------------------------------
     def _dispatch(self, frame: Frame, t: int) -> None:
