@@ -49,6 +49,7 @@ from emulators.xsens.defs import (
     ErrorCode,
     ErrorMode,
     LegacyMode,
+    LegacyOrientation,
     baud_code_for,
 )
 from emulators.xsens.errors import ErrorModel
@@ -351,8 +352,8 @@ class MtiDevice(ByteDevice):
             ls = self._builder.legacy_sample(s.output_settings, m, status, self._counter)
             frame = encode_frame(MID.MTDATA, legacy.encode(s.output_mode, s.output_settings, ls))
             euler = acc = rate = None
-            if s.output_mode & LegacyMode.ORIENTATION:
-                euler = quat_to_euler_deg(ls.q)
+            if s.output_mode & LegacyMode.ORIENTATION and legacy.orientation_of(s.output_settings) == LegacyOrientation.EULER:
+                euler = quat_to_euler_deg(ls.q)  # Euler mode: the angles as sent
             if s.output_mode & LegacyMode.CALIBRATED:
                 acc, rate = ls.acc_mps2, ls.rate_radps
             return frame, SampleSent(t, self._counter, None, euler, rate, acc, len(frame))

@@ -179,6 +179,9 @@ def test_legacy_frames(settings_: int, expected_euler: tuple[float, ...]) -> Non
     assert v[0:3] == pytest.approx((1.0, 2.0, -9.0) if ned else (1.0, -2.0, 9.0))
     assert v[3:6] == pytest.approx((0.1, -0.2, 0.3) if ned else (0.1, 0.2, -0.3))
     assert f.payload[-2:] == b"\x00\x00"  # sample counter
+    (sent,) = h.of_type(SampleSent)
+    assert sent.euler_deg == pytest.approx(v[9:12], abs=1e-5) and sent.sample_time_fine is None
+    assert sent.acc_mps2 == pytest.approx(v[0:3], abs=1e-6) and sent.nbytes == 5 + 50
 
 
 # -- error model ----------------------------------------------------------------------------------
