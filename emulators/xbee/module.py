@@ -13,6 +13,7 @@ over the packets to transmit, :meth:`accepts`/:meth:`air_receive` deliver incomi
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 from enum import Enum, auto, unique
 
@@ -103,6 +104,8 @@ class XBeeModule(ByteDevice):
         self._next_tag = 1
         self._baud_ok = True
         self._t_ns = 0
+        #: API frames waiting for their release time: (t_ns, frame data).
+        self._delayed: deque[tuple[int, bytes]] = deque()
         self._reset_text_state()
 
     # -- identity ------------------------------------------------------------------------
@@ -136,6 +139,7 @@ class XBeeModule(ByteDevice):
         """Power-up/hardware reset: in API mode the module announces it (0x8A, status 0)."""
         self.regs.pending.clear()
         self._parser = ApiParser(escaped=self.ap == 2)
+        self._delayed.clear()
         self._reset_text_state()
         if self.ap:
             self._send_frame(fr.modem_status(ModemStatus.HARDWARE_RESET))
@@ -171,8 +175,11 @@ class XBeeModule(ByteDevice):
             self._transparent_bytes(data, t_ns)
 
     def advance(self, t_ns: int) -> None:
-        """Transparent-mode timers: guard times, RO packetisation, CT timeout."""
+        """Release delayed API answers; transparent-mode timers: guard times, RO
+        packetisation, CT timeout."""
         self._t_ns = max(self._t_ns, t_ns)
+        while self._delayed and self._delayed[0][0] <= t_ns:
+            self._send_frame(self._delayed.popleft()[1])
         if self.ap:
             return
         gt_ns = self.regs.num("GT") * NS_PER_MS
@@ -199,6 +206,12 @@ class XBeeModule(ByteDevice):
         self._send(fr.encode_frame(frame_data, escaped=self.ap == 2))
         self.counters["api_frames_out"] += 1
 
+    def _send_later(self, t_release_ns: int, frame_data: bytes) -> None:
+        if t_release_ns <= self._t_ns:
+            self._send_frame(frame_data)
+        else:
+            self._delayed.append((t_release_ns, frame_data))
+
     def _api_frame(self, fd: bytes, t_ns: int) -> None:
         kind = fd[0]
         self.counters["api_frames_in"] += 1
@@ -210,11 +223,15 @@ class XBeeModule(ByteDevice):
             name = fd[2:4].decode("ascii", "replace").upper()
             status, value = self._at(name, fd[4:] if len(fd) > 4 else None, t_ns,
                                      apply_now=kind == FrameType.AT_COMMAND, via="api")
+            release_ns = t_ns + self.params.at_response_delay_us * 1_000
+            software_reset = name == "FR" and status == AtStatus.OK
+            if software_reset:  # answer, then restart: pending changes and buffers are gone
+                self.regs.pending.clear()
+                self._reset_text_state()
             if fd[1]:
-                self._send_frame(fr.at_response(fd[1], fd[2:4], status, value))
-            if name == "FR" and status == AtStatus.OK:
-                self.reset(t_ns)
-                self._send_frame(fr.modem_status(ModemStatus.WATCHDOG_RESET))
+                self._send_later(release_ns, fr.at_response(fd[1], fd[2:4], status, value))
+            if software_reset:
+                self._send_later(release_ns, fr.modem_status(ModemStatus.WATCHDOG_RESET))
         elif kind == FrameType.REMOTE_AT_COMMAND and len(fd) >= 15:
             self._remote_at_request(fd, t_ns)
         else:

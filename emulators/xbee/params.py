@@ -26,7 +26,9 @@ class XBeeParams:
     guard time; ``cc`` command character; ``ct_100ms`` command-mode timeout;
     ``rr`` XBee retries; ``mm`` MAC mode; ``pl`` power level; ``max_payload`` RF payload
     limit (100 bytes); ``enforce_baud`` a host at another line rate reads garbage and is
-    not understood (counted; the module stays silent towards it).
+    not understood (counted; the module stays silent towards it); ``at_response_delay_us``
+    time the module takes to answer an API AT command (a real module needs a few ms; an
+    instant answer also trips a lost-wakeup race in digi-xbee's synchronous requests).
     """
 
     __pydantic_config__ = {"extra": "forbid"}
@@ -53,6 +55,7 @@ class XBeeParams:
     pl: int = 4
     max_payload: int = 100
     enforce_baud: bool = True
+    at_response_delay_us: int = 2_000
 
     def __post_init__(self) -> None:
         if self.ap not in (0, 1, 2):

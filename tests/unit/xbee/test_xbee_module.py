@@ -42,6 +42,7 @@ def frames_of(m: XBeeModule) -> list[bytes]:
 
 def at(m: XBeeModule, cmd: str, param: bytes = b"", fid: int = 1, queue: bool = False) -> tuple[int, bytes]:
     m.receive(encode_frame(at_command(fid, cmd, param, queue=queue), escaped=m.ap == 2), 0)
+    m.advance(10 * MS)  # the module takes at_response_delay_us to answer
     (resp,) = frames_of(m)
     assert resp[0] == FrameType.AT_RESPONSE and resp[1] == fid and resp[2:4] == cmd.encode()
     return resp[4], resp[5:]
@@ -73,7 +74,20 @@ def test_set_queue_apply_and_errors() -> None:
 def test_frame_id_zero_gets_no_response() -> None:
     v = XBeeModule(VEHICLE, np.random.default_rng(0))
     v.receive(encode_frame(at_command(0, "AP")), 0)
+    v.advance(10 * MS)
     assert v.take_output() == b""
+
+
+def test_at_response_takes_the_configured_time() -> None:
+    v = XBeeModule(XBeeParams(at_response_delay_us=2_000), np.random.default_rng(0))
+    v.receive(encode_frame(at_command(1, "AP")), 5 * MS)
+    v.advance(5 * MS + 1_999_999)
+    assert v.take_output() == b""
+    v.advance(7 * MS)
+    assert v.take_output() == bytes.fromhex("7E 00 06 88 01 41 50 00 01 E4")
+    now = XBeeModule(XBeeParams(at_response_delay_us=0), np.random.default_rng(0))
+    now.receive(encode_frame(at_command(1, "AP")), 0)
+    assert now.take_output() == bytes.fromhex("7E 00 06 88 01 41 50 00 01 E4")
 
 
 def test_tx16_reaches_ground_as_rx16_with_status() -> None:
@@ -239,6 +253,7 @@ def test_switch_to_api_mode_from_command_mode() -> None:
     v.receive(b"ATAP1,CN\r", t)
     assert v.take_output() == b"OK\rOK\r" and v.ap == 1
     v.receive(encode_frame(at_command(1, "AP")), t)
+    v.advance(t + 10 * MS)
     assert frames_of(v) == [bytes([0x88, 1, 0x41, 0x50, 0, 1])]
 
 
@@ -291,7 +306,17 @@ def test_module_byte_by_byte_with_garbage(ap: int) -> None:
     stream = b"\x00garbage\x11" + bytes(bad) + b"".join(encode_frame(f, escaped=ap == 2) + b"\xff\x00" for f in frames)
     for b in stream:
         v.receive(bytes([b]), 0)
+    v.advance(10 * MS)
     resp = ApiParser(escaped=ap == 2).feed(v.take_output())
     assert [r[1] for r in resp] == [1, 2, 3, 4] and all(r[4] == AtStatus.OK for r in resp)
     assert resp[0][5:] == bytes([ap]) and resp[3][5:] == b"VEHICLE"
     assert v.counters["api_bad_checksum"] == 1
+
+
+def test_software_reset_answers_then_announces() -> None:
+    v = XBeeModule(VEHICLE, np.random.default_rng(0))
+    v.receive(encode_frame(at_command(1, "MY", b"\x00\x09", queue=True)), 0)
+    v.receive(encode_frame(at_command(2, "FR")), 0)
+    v.advance(10 * MS)
+    assert frames_of(v) == [bytes([0x88, 1, 0x4D, 0x59, 0]), bytes([0x88, 2, 0x46, 0x52, 0]), bytes([0x8A, 0x01])]
+    assert at(v, "MY") == (AtStatus.OK, b"\x00\x01")  # the queued change was lost
