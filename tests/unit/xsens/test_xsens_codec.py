@@ -105,7 +105,7 @@ def test_strict_decode_rejects_defects() -> None:
             decode_frame(bad)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(mid=st.integers(0, 255), bid=st.integers(0, 255), payload=st.binary(max_size=700))
 def test_frame_round_trip_including_extended_length(mid: int, bid: int, payload: bytes) -> None:
     raw = encode_frame(mid, payload, bid)
@@ -167,7 +167,7 @@ def test_fixed_point_formats_match_the_documented_layouts() -> None:
     assert encode_values([1e9], Precision.FP1220) == struct.pack(">i", (1 << 31) - 1)  # saturates
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(st.lists(st.floats(-2000, 2000, allow_nan=False), min_size=1, max_size=9),
        st.sampled_from(list(Precision)))
 def test_value_codec_round_trip(values: list[float], precision: Precision) -> None:
