@@ -27,9 +27,10 @@ from collections import Counter, deque
 from dataclasses import dataclass
 from typing import Literal
 
-from flightcode.drivers import xbus
+from flightcode.drivers import mtdata, xbus
 from flightcode.drivers.base import DeviceError, SerialLike
-from flightcode.drivers.xbus import Mid, XbusMessage, XsensData
+from flightcode.drivers.mtdata import XsensData
+from flightcode.drivers.xbus import Mid, XbusMessage
 from flightcode.log import Logger
 
 _DEG = math.pi / 180.0
@@ -106,8 +107,8 @@ class XsensDriver:
         self._legacy = params.identity == "legacy"
         self._period_ns = 1_000_000_000 // params.rate_hz
         if self._legacy:
-            self._period_ns = xbus.legacy_period(params.rate_hz) * 1_000_000_000 // xbus.LEGACY_PERIOD_CLOCK_HZ
-            self._frame_len = 5 + xbus.legacy_mtdata_length(xbus.LEGACY_OUTPUT_MODE, xbus.LEGACY_OUTPUT_SETTINGS)
+            self._period_ns = mtdata.legacy_period(params.rate_hz) * 1_000_000_000 // mtdata.LEGACY_PERIOD_CLOCK_HZ
+            self._frame_len = 5 + mtdata.legacy_mtdata_length(mtdata.LEGACY_OUTPUT_MODE, mtdata.LEGACY_OUTPUT_SETTINGS)
         else:
             self._frame_len = 5 + 64  # the six configured MTData2 items, 64 payload bytes
         self._time_base: int | None = None  # raw clock value of the first sample
@@ -172,8 +173,8 @@ class XsensDriver:
         return info
 
     def _configure_mk4(self) -> None:
-        entries = xbus.mk4_output_configuration(self.params.rate_hz)
-        request = xbus.encode_output_configuration(entries)
+        entries = mtdata.mk4_output_configuration(self.params.rate_hz)
+        request = mtdata.encode_output_configuration(entries)
         applied = self._require(Mid.SET_OUTPUT_CONFIGURATION, request, Mid.SET_OUTPUT_CONFIGURATION_ACK)
         if applied != request:
             raise DeviceError(self.name, f"SetOutputConfiguration applied {applied.hex(' ')} instead of "
@@ -181,9 +182,9 @@ class XsensDriver:
         self.log.info("imu.configured", output="mtdata2", rate_hz=self.params.rate_hz)
 
     def _configure_legacy(self) -> None:
-        period = xbus.legacy_period(self.params.rate_hz)
-        self._require(Mid.SET_OUTPUT_MODE, int(xbus.LEGACY_OUTPUT_MODE).to_bytes(2, "big"), Mid.SET_OUTPUT_MODE_ACK)
-        self._require(Mid.SET_OUTPUT_SETTINGS, int(xbus.LEGACY_OUTPUT_SETTINGS).to_bytes(4, "big"),
+        period = mtdata.legacy_period(self.params.rate_hz)
+        self._require(Mid.SET_OUTPUT_MODE, int(mtdata.LEGACY_OUTPUT_MODE).to_bytes(2, "big"), Mid.SET_OUTPUT_MODE_ACK)
+        self._require(Mid.SET_OUTPUT_SETTINGS, int(mtdata.LEGACY_OUTPUT_SETTINGS).to_bytes(4, "big"),
                       Mid.SET_OUTPUT_SETTINGS_ACK)
         self._require(Mid.SET_PERIOD, period.to_bytes(2, "big"), Mid.SET_PERIOD_ACK)
         self.log.info("imu.configured", output="mtdata", period=period, rate_hz=self.params.rate_hz)
@@ -198,9 +199,9 @@ class XsensDriver:
     # -- measurement ---------------------------------------------------------------------
     def _decode(self, msg: XbusMessage) -> XsensData | None:
         if msg.mid == Mid.MT_DATA2 and not self._legacy:
-            return xbus.decode_mtdata2(msg.payload, self.counters)
+            return mtdata.decode_mtdata2(msg.payload, self.counters)
         if msg.mid == Mid.MT_DATA and self._legacy:
-            return xbus.decode_mtdata_legacy(msg.payload, xbus.LEGACY_OUTPUT_MODE, xbus.LEGACY_OUTPUT_SETTINGS,
+            return mtdata.decode_mtdata_legacy(msg.payload, mtdata.LEGACY_OUTPUT_MODE, mtdata.LEGACY_OUTPUT_SETTINGS,
                                              self.counters)
         self.counters["unexpected_messages"] += 1
         return None
@@ -209,7 +210,7 @@ class XsensDriver:
         if self._legacy:
             raw, modulus, tick_ns = data.counter, 0x10000, self._period_ns
         else:
-            raw, modulus, tick_ns = data.sample_time_fine or 0, 0x1_0000_0000, 1_000_000_000 // xbus.SAMPLE_TIME_FINE_HZ
+            raw, modulus, tick_ns = data.sample_time_fine or 0, 0x1_0000_0000, 1_000_000_000 // mtdata.SAMPLE_TIME_FINE_HZ
         if self._time_base is None:
             self._time_base = raw
         else:

@@ -1,4 +1,4 @@
-"""Xbus codec: golden frames from the documentation, fed whole, byte by byte and with garbage."""
+"""Xbus framing and MTData decoding: golden frames from the documentation, fed whole, byte by byte and with garbage."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flightcode.drivers import xbus
+from flightcode.drivers import mtdata, xbus
 from flightcode.drivers.xbus import Mid, XbusMessage, XbusParser
 
 # protocols.md 1.2 worked frames (ReqDID identical to MT0100P; ReqBaudrate matches MT0605P;
@@ -51,15 +51,15 @@ def test_encode_matches_documented_frames(mid: int, payload: bytes, wire: str) -
 def test_set_output_configuration_of_the_flight_code() -> None:
     # protocols.md 1.9 example with float32/ENU XDIs; the flight code sets the NED bit (0x4)
     # on EulerAngles, RateOfTurn and Acceleration: 0x2034, 0x8024, 0x4024.
-    payload = xbus.encode_output_configuration(xbus.mk4_output_configuration(400))
+    payload = mtdata.encode_output_configuration(mtdata.mk4_output_configuration(400))
     assert payload == bytes.fromhex("10 20 FF FF 10 60 FF FF 20 34 01 90 80 24 01 90 40 24 01 90 E0 20 FF FF")
     frame = xbus.encode_frame(Mid.SET_OUTPUT_CONFIGURATION, payload)
     assert frame[:4] == bytes.fromhex("FA FF C0 18") and sum(frame[1:]) & 0xFF == 0
 
 
 def test_legacy_period_for_400_hz() -> None:
-    assert xbus.legacy_period(400) == 288
-    assert xbus.legacy_period(100) == 1152
+    assert mtdata.legacy_period(400) == 288
+    assert mtdata.legacy_period(100) == 1152
 
 
 def _stream() -> bytes:
@@ -145,14 +145,14 @@ def test_round_trip_any_fragmentation(frames: list[tuple[int, bytes]], cuts: lis
 
 def test_decode_golden_mtdata2_lacks_euler_so_is_incomplete() -> None:
     counters: Counter[str] = Counter()
-    assert xbus.mtdata2_packets(GOLDEN_MTDATA2[4:-1]) == [
+    assert mtdata.mtdata2_packets(GOLDEN_MTDATA2[4:-1]) == [
         (0x1020, b"\x00\x07"), (0x2010, bytes.fromhex("3F800000" + "00" * 12)), (0xE020, b"\x00\x00\x00\x03")]
-    assert xbus.decode_mtdata2(GOLDEN_MTDATA2[4:-1], counters) is None
+    assert mtdata.decode_mtdata2(GOLDEN_MTDATA2[4:-1], counters) is None
     assert counters["mtdata2_incomplete"] == 1
 
 
 def test_real_mti300_packet_items() -> None:
-    packets = dict(xbus.mtdata2_packets(MTI300_EXAMPLE3) or [])
+    packets = dict(mtdata.mtdata2_packets(MTI300_EXAMPLE3) or [])
     assert struct.unpack(">H", packets[0x1020])[0] == 36240
     assert struct.unpack(">I", packets[0x1060])[0] == 5561329
     acc = struct.unpack(">3f", packets[0x4020])
@@ -172,24 +172,24 @@ def _mtdata2(euler: tuple[float, float, float], precision: int = 0) -> bytes:
 
 
 def test_decode_full_sample() -> None:
-    data = xbus.decode_mtdata2(_mtdata2((1.5, -2.25, 90.0)), Counter())
-    assert data == xbus.XsensData(513, 123456, (1.5, -2.25, 90.0), pytest.approx((0.1, -0.2, 0.3)),
+    data = mtdata.decode_mtdata2(_mtdata2((1.5, -2.25, 90.0)), Counter())
+    assert data == mtdata.XsensData(513, 123456, (1.5, -2.25, 90.0), pytest.approx((0.1, -0.2, 0.3)),
                                   (0.5, 0.25, -9.75), 0x00400003)
 
 
 def test_decode_float64_and_fixed_point() -> None:
-    data = xbus.decode_mtdata2(_mtdata2((1.5, -2.25, 90.0), precision=3), Counter())
+    data = mtdata.decode_mtdata2(_mtdata2((1.5, -2.25, 90.0), precision=3), Counter())
     assert data is not None and data.euler_deg == (1.5, -2.25, 90.0)
     # fp12.20: 1.5 -> 0x00180000 ; fp16.32: -2.25 -> frac 0xC0000000, int -3
     fp1220 = struct.pack(">3i", 0x00180000, -0x00240000, 90 << 20)
-    assert xbus._vec3(fp1220, xbus.XdiPrecision.FP1220) == (1.5, -2.25, 90.0)
+    assert mtdata._vec3(fp1220, mtdata.XdiPrecision.FP1220) == (1.5, -2.25, 90.0)
     fp1632 = struct.pack(">Ih", 0xC0000000, -3) * 3
-    assert xbus._vec3(fp1632, xbus.XdiPrecision.FP1632) == (-2.25, -2.25, -2.25)
+    assert mtdata._vec3(fp1632, mtdata.XdiPrecision.FP1632) == (-2.25, -2.25, -2.25)
 
 
 def test_truncated_mtdata2_is_counted() -> None:
     counters: Counter[str] = Counter()
-    assert xbus.decode_mtdata2(_mtdata2((0.0, 0.0, 0.0))[:-2], counters) is None
+    assert mtdata.decode_mtdata2(_mtdata2((0.0, 0.0, 0.0))[:-2], counters) is None
     assert counters["mtdata2_truncated"] == 1
 
 
@@ -197,14 +197,14 @@ def test_decode_golden_legacy_layout() -> None:
     # The documented example uses mode 0x0004 / settings 0x00000005 (orientation only): the
     # flight code needs calibrated data too, so it reports the layout as unsupported...
     counters: Counter[str] = Counter()
-    assert xbus.legacy_mtdata_length(0x0004, 0x00000005) == 14
-    assert xbus.decode_mtdata_legacy(GOLDEN_LEGACY[4:-1], 0x0004, 0x00000005, counters) is None
+    assert mtdata.legacy_mtdata_length(0x0004, 0x00000005) == 14
+    assert mtdata.decode_mtdata_legacy(GOLDEN_LEGACY[4:-1], 0x0004, 0x00000005, counters) is None
     assert counters["mtdata_unsupported_layout"] == 1
     # ...and decodes its own layout: acc, gyr, mag, Euler, counter (calibrated + orientation).
     payload = struct.pack(">3f3f3f", 0.5, 0.25, -9.75, 0.1, -0.2, 0.3, 1, 2, 3) + GOLDEN_LEGACY[4:-1]
-    mode, settings = int(xbus.LEGACY_OUTPUT_MODE), int(xbus.LEGACY_OUTPUT_SETTINGS)
+    mode, settings = int(mtdata.LEGACY_OUTPUT_MODE), int(mtdata.LEGACY_OUTPUT_SETTINGS)
     assert (mode, settings) == (0x0006, 0x80000005)
-    data = xbus.decode_mtdata_legacy(payload, mode, settings, Counter())
+    data = mtdata.decode_mtdata_legacy(payload, mode, settings, Counter())
     assert data is not None
     assert data.counter == 0x1234 and data.sample_time_fine is None
     assert data.euler_deg == (1.5, -2.25, 90.0)
@@ -214,5 +214,5 @@ def test_decode_golden_legacy_layout() -> None:
 
 def test_legacy_wrong_length_is_counted() -> None:
     counters: Counter[str] = Counter()
-    assert xbus.decode_mtdata_legacy(b"\x00" * 49, 0x0006, 0x80000005, counters) is None
+    assert mtdata.decode_mtdata_legacy(b"\x00" * 49, 0x0006, 0x80000005, counters) is None
     assert counters["mtdata_bad_length"] == 1
