@@ -20,7 +20,14 @@ from enum import Enum, auto
 from emulators.base import ByteDevice, DeviceEvent
 from emulators.maestro.motion import ServoChannel
 from emulators.maestro.params import MaestroParams
-from emulators.maestro.protocol import DATA_LENGTH, Command, ErrorBit, Prefix, crc7, join14
+from emulators.maestro.protocol import (
+    DATA_LENGTH,
+    Command,
+    ErrorBit,
+    Prefix,
+    crc7,
+    join14,
+)
 
 NS_PER_US = 1_000
 

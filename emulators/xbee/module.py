@@ -21,7 +21,15 @@ import numpy as np
 
 from emulators.base import ByteDevice, DeviceEvent
 from emulators.xbee import frames as fr
-from emulators.xbee.frames import ApiParser, AtStatus, FrameType, ModemStatus, RxOption, TxOption, TxStatus
+from emulators.xbee.frames import (
+    ApiParser,
+    AtStatus,
+    FrameType,
+    ModemStatus,
+    RxOption,
+    TxOption,
+    TxStatus,
+)
 from emulators.xbee.params import XBeeParams, bd_to_baud
 from emulators.xbee.registers import REGISTERS, Registers, RegKind
 
@@ -253,7 +261,7 @@ class XBeeModule(ByteDevice):
         tag = self._next_tag
         self._next_tag += 1
         self._air_tx.append(RfPacket(
-            t_ns, NO_16BIT if my >= NO_16BIT else my, self.address64, dest16, dest64, bytes(payload), ack,
+            t_ns, min(NO_16BIT, my), self.address64, dest16, dest64, bytes(payload), ack,
             broadcast_pan, self.regs.num("CH"), self.regs.num("ID"), tag, kind))
         return tag
 

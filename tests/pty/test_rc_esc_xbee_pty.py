@@ -19,7 +19,13 @@ import serial
 
 from emulators.base import ByteDevice
 from emulators.esc import Esc, EscParams
-from emulators.maestro import Maestro, MaestroParams, TargetsSet, get_position, set_multiple_targets
+from emulators.maestro import (
+    Maestro,
+    MaestroParams,
+    TargetsSet,
+    get_position,
+    set_multiple_targets,
+)
 from emulators.rc import (
     CaptureFrontEnd,
     CaptureParams,
@@ -167,7 +173,7 @@ async def test_rc_capture_records_over_pty(dev_dir: Path) -> None:
         ser = await open_serial(port.path, 115200)
         try:
             total = 0
-            for k in range(0, 81):  # 200 ms of sim time in 2.5 ms ticks
+            for k in range(81):  # 200 ms of sim time in 2.5 ms ticks
                 t = k * TICK_NS
                 fe.feed_edges(gen.edges_until(t))
                 fe.advance(t)
@@ -192,7 +198,7 @@ async def test_rc_sbus_frames_over_pty(dev_dir: Path) -> None:
         ser = await open_serial(port.path, 100000)
         try:
             chunks = bytearray()
-            for k in range(0, 121):  # 300 ms
+            for k in range(121):  # 300 ms
                 t = k * TICK_NS
                 conv.feed_edges(gen.edges_until(t))
                 conv.advance(t)

@@ -142,7 +142,7 @@ def test_mini_ssc_data_may_look_like_commands() -> None:
     m = dev()
     m.receive(bytes([0xFF, 0x01, 0xA1]), 0)  # 0xA1 is a Mini SSC value here, not Get Errors
     assert m.take_output() == b""
-    assert targets(m) == [(1, (int(round(6000 + (0xA1 - 127) * 1905 / 127)),))]
+    assert targets(m) == [(1, (round(6000 + (0xA1 - 127) * 1905 / 127),))]
 
 
 def test_bad_channel_and_multi_overflow_are_protocol_errors() -> None:

@@ -6,7 +6,13 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from emulators.rc.capture import CaptureFrontEnd, CaptureRecord, crc8, pack_record, unpack_record
+from emulators.rc.capture import (
+    CaptureFrontEnd,
+    CaptureRecord,
+    crc8,
+    pack_record,
+    unpack_record,
+)
 from emulators.rc.params import CaptureParams, PpmParams
 from emulators.rc.ppm import PpmEdge, PpmGenerator
 from emulators.rc.script import Setpoint, StickScript

@@ -6,7 +6,14 @@ from __future__ import annotations
 import numpy as np
 
 from emulators.maestro import Maestro, MaestroParams, TargetsSet
-from emulators.rc import CaptureFrontEnd, CaptureParams, PpmGenerator, PpmParams, SbusConverter, SbusParams
+from emulators.rc import (
+    CaptureFrontEnd,
+    CaptureParams,
+    PpmGenerator,
+    PpmParams,
+    SbusConverter,
+    SbusParams,
+)
 from emulators.rc.script import Setpoint, StickScript
 from flightcode.drivers import maestro as fc_maestro
 from flightcode.drivers import ppm_capture as fc_capture
