@@ -174,8 +174,19 @@ class FlightLoop:
 
     def shutdown(self) -> None:
         """Motors to minimum (called on SIGTERM/SIGINT and on any exit path)."""
-        self.dev.esc.write_minimum()
+        self._write_esc(None)
         self.log.info("shutdown", pulse_us=self.cfg.esc.min_us)
+
+    def _write_esc(self, pulses_us: tuple[float, ...] | None) -> None:
+        """One Maestro command (None = all motors to minimum); a port error is logged, not raised."""
+        try:
+            if pulses_us is None:
+                self.dev.esc.write_minimum()
+            else:
+                self.dev.esc.write_pulses_us(pulses_us)
+        except OSError as exc:
+            self.counters["esc_port_errors"] += 1
+            self.log.error("esc.port_error", error=str(exc))
 
     # -- running ----------------------------------------------------------------------------
     def run(self, max_iterations: int | None = None) -> None:
@@ -204,7 +215,7 @@ class FlightLoop:
         self.counters["imu_timeouts"] += 1
         self.modes.imu_lost()
         self._log_transitions()
-        self.dev.esc.write_minimum()
+        self._write_esc(None)
         self.log.warning("imu.timeout", timeouts=self.counters["imu_timeouts"], mode=self.modes.mode)
 
     def _log_transitions(self) -> None:
@@ -335,11 +346,7 @@ class FlightLoop:
             level = cfg.esc.idle_us if policy is MotorPolicy.IDLE else cfg.esc.min_us
             pulses = (level, level, level, level)
             self._u_applied = 0.0  # on the ground the weight is carried by the ground, not thrust
-        try:
-            dev.esc.write_pulses_us(pulses)
-        except OSError as exc:
-            self.counters["esc_port_errors"] += 1
-            self.log.error("esc.port_error", error=str(exc))
+        self._write_esc(pulses)
 
         # 8. telemetry on sensor-time slots
         slot = t_ns // self._tel_slot_ns

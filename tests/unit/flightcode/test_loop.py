@@ -213,3 +213,22 @@ def test_dead_adc_fails_boot_naming_it() -> None:
         loop.boot()
     assert err.value.device == "adc"
     assert not w.imu.measuring  # GoToMeasurement comes last, after every other device is up
+
+
+def test_serial_errors_in_flight_are_logged_and_survived() -> None:
+    loop, w, _ = run(pilot, 1200)
+    out = io.StringIO()
+    loop.log = Logger(out)
+
+    def broken(*args: object) -> bytes:
+        raise OSError(5, "Input/output error")
+
+    for name in ("rc", "telemetry"):
+        w.ports[name].read = broken  # type: ignore[method-assign]
+    w.ports["esc"].write = broken  # type: ignore[method-assign]
+    loop.run(max_iterations=20)
+    text = out.getvalue()
+    for name in ("rc", "esc", "telemetry"):
+        assert f"level=error event={name}.port_error" in text
+    assert loop.counters["rc_port_errors"] == 20 and loop.counters["esc_port_errors"] == 20
+    assert loop.modes.mode is Mode.FLYING  # 20 samples (50 ms) is less than the RC-loss time
