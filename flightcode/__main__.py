@@ -36,10 +36,14 @@ class Shutdown(Exception):
         self.signum = signum
 
 
-def _on_signal(signum: int, frame: FrameType | None) -> None:
-    # A second signal while shutting down must not interrupt the motors-to-minimum write.
+def _ignore_signals() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _on_signal(signum: int, frame: FrameType | None) -> None:
+    # A second signal while shutting down must not interrupt the motors-to-minimum write.
+    _ignore_signals()
     raise Shutdown(signum)
 
 
@@ -85,8 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     if cfg.rc.frontend == "sbus" and cfg.ports.rc.baud != sbus.BAUD:
         log.warning("config.sbus_baud", baud=cfg.ports.rc.baud, expected=sbus.BAUD)
 
-    signal.signal(signal.SIGTERM, _on_signal)
-    signal.signal(signal.SIGINT, _on_signal)
+    previous = {sig: signal.signal(sig, _on_signal) for sig in (signal.SIGTERM, signal.SIGINT)}
     ports: dict[str, SerialLike] = {}
     flight = None
     try:
@@ -106,12 +109,14 @@ def main(argv: list[str] | None = None) -> int:
             flight.shutdown()
         return EXIT_OK
     except DeviceError as exc:
+        _ignore_signals()
         log.error("boot.failed", device=exc.device, reason=exc.reason)
         print(f"flightcode: device '{exc.device}' failed at boot: {exc.reason}", file=sys.stderr)
         if flight is not None:
             flight.shutdown()
         return EXIT_DEVICE
     except Exception as exc:  # last resort: motors safe, say what happened, non-zero status
+        _ignore_signals()
         log.error("internal_error", error=repr(exc), traceback=traceback.format_exc())
         if flight is not None:
             try:
@@ -120,13 +125,14 @@ def main(argv: list[str] | None = None) -> int:
                 pass
         return EXIT_INTERNAL
     finally:
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        _ignore_signals()
         for port in ports.values():
             try:
                 port.close()
             except OSError:
                 pass
+        for sig, handler in previous.items():  # matters when main() is called in-process
+            signal.signal(sig, handler)
 
 
 if __name__ == "__main__":
