@@ -13,6 +13,7 @@ from typing import Any
 
 from pydantic import Field
 
+from emulators.rc.script import CENTRE_US
 from hil.faults.base import NS_PER_S, Fault, FaultParams, Layer, NoParams, Refused, Timing
 
 ESC_HELP = "ESC index 0..3 (Maestro channel i, drives rotor i)"
@@ -111,7 +112,7 @@ class RcSignalLoss(Fault):
 
 class GlitchParams(FaultParams):
     channel: int = Field(default=3, ge=1, le=16, description="channel (1-based) whose slot gets the extra pulse")
-    width_us: int = Field(default=20, ge=1, le=500, description="width of the glitch pulse, us")
+    width_us: int = Field(default=20, ge=1, le=1000, description="width of the glitch pulse, us")
     interval_s: float = Field(
         default=0.0225, gt=0.0, description="with duration_s: one glitch every interval_s (22.5 ms = every frame)"
     )
@@ -219,8 +220,9 @@ class RcChannelStuck(Fault):
         ppm = self.env.devices.ppm
         ch = self.params.channel
         pulse = self.params.pulse_us
-        if pulse is None:
-            pulse = int(round(ppm.script.value_us(ch, self.t_start_ns)))
+        if pulse is None:  # what the generator would send now (rounded, clamped; unscripted: centred)
+            scripted = ppm.script.pulses_us(self.t_start_ns)
+            pulse = scripted[ch - 1] if ch <= len(scripted) else CENTRE_US
         ppm.set_stuck(self.t_start_ns, ch, pulse)
         return {"channel": ch, "pulse_us": pulse}
 

@@ -295,7 +295,7 @@ class Delay(WireFault):
 class BaudParams(WireParams):
     device_baud_bps: int | None = Field(default=None, gt=0, description="the device's (wrong) line rate, bit/s")
     rate_error: float | None = Field(
-        default=None, ge=-0.5, le=1.0, description="or: device rate = host rate x (1 + rate_error), e.g. 0.06 = +6 %"
+        default=None, ge=-0.5, le=1.0, description="or: device rate = the port's rate x (1 + rate_error), e.g. 0.06 = +6 %"
     )
 
     @model_validator(mode="after")
@@ -323,7 +323,11 @@ class BaudMismatch(WireFault):
     """The device's UART runs at the wrong rate (bad crystal, wrong setting): the flight
     code receives what a UART at its own rate makes of the re-clocked bit stream (garbage,
     framing errors delivered as 00, fewer or more bytes), and the device garbles what the
-    flight code sends the same way."""
+    flight code sends the same way.
+
+    The host's rate is the one it opened the port with (the rig's rate until it does). The
+    fault assumes the host is at the device's configured rate; a host at yet another rate
+    already gets garbage from the XSENS and XBee models, which this re-clocks once more."""
 
     kind = "wire.baud_mismatch"
     Params = BaudParams
@@ -343,17 +347,18 @@ class BaudMismatch(WireFault):
             return int(line.baud)
         return nominal_baud_bps(self.env.devices.rig, self.params.port)
 
-    def _device_bps(self, host: int) -> int:
+    def _device_bps(self) -> int:
         p = self.params
-        return int(p.device_baud_bps) if p.device_baud_bps is not None else max(1, round(host * (1.0 + p.rate_error)))
+        if p.device_baud_bps is not None:
+            return int(p.device_baud_bps)
+        return max(1, round(nominal_baud_bps(self.env.devices.rig, p.port) * (1.0 + p.rate_error)))
 
     def applied(self) -> dict[str, Any]:
-        host = self._host_bps()
-        return {"host_baud_bps": host, "device_baud_bps": self._device_bps(host)}
+        return {"host_baud_bps": self._host_bps(), "device_baud_bps": self._device_bps()}
 
     def process(self, data: bytes, t_ns: int, d: Direction) -> bytes:
         host = self._host_bps()
-        dev = self._device_bps(host)
+        dev = self._device_bps()
         if d is Direction.TX:
             return receive_at_wrong_baud(data, dev, host)
         return receive_at_wrong_baud(data, host, dev)
