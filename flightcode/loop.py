@@ -17,8 +17,8 @@ Each iteration (:meth:`FlightLoop.step`):
 7. mix and write one Maestro Set Multiple Targets;
 8. telemetry every ``telemetry.divider``-th sample slot of sensor time (50 Hz at 400 Hz).
 
-Compute time is ``perf_counter_ns`` around the iteration minus the two blocking reads (IMU
-wait, ADC reply) and goes into telemetry. A device that misbehaves in flight (garbage,
+Compute time is ``perf_counter_ns`` around the iteration minus the two blocking exchanges (IMU
+wait, ADC transaction) and goes into telemetry. A device that misbehaves in flight (garbage,
 silence, a serial error) is counted and logged; the loop keeps flying on what it has or fails
 safe, it never stops.
 """

@@ -5,8 +5,8 @@ frame. 90 bytes, little-endian, fixed layout; docs/telemetry.md documents it byt
 (the bench decodes it from that page, independently of this module). A new layout gets a
 new ``version`` byte; decoders must check it first.
 
-Compute time is ``time.perf_counter_ns`` around a loop iteration minus its blocking reads
-(IMU wait, ADC reply); the frame carries the last, maximum and mean over the samples
+Compute time is ``time.perf_counter_ns`` around a loop iteration minus its blocking exchanges
+(IMU wait, ADC transaction); the frame carries the last, maximum and mean over the samples
 completed since the previous frame.
 """
 
