@@ -185,8 +185,7 @@ class FlightLoop:
             else:
                 self.dev.esc.write_pulses_us(pulses_us)
         except OSError as exc:
-            self.counters["esc_port_errors"] += 1
-            self.log.error("esc.port_error", error=str(exc))
+            self._port_error("esc", exc)
 
     # -- running ----------------------------------------------------------------------------
     def run(self, max_iterations: int | None = None) -> None:
@@ -201,8 +200,7 @@ class FlightLoop:
         try:
             sample = self.dev.imu.read_sample(self.cfg.failsafe.imu_timeout_s)
         except OSError as exc:  # the port itself failed (unplugged, I/O error)
-            self.counters["imu_port_errors"] += 1
-            self.log.error("imu.port_error", error=str(exc))
+            self._port_error("imu", exc)
             time.sleep(self.cfg.failsafe.imu_timeout_s)  # keep the watchdog period, do not spin
             sample = None
         if sample is None:
@@ -217,6 +215,15 @@ class FlightLoop:
         self._log_transitions()
         self._write_esc(None)
         self.log.warning("imu.timeout", timeouts=self.counters["imu_timeouts"], mode=self.modes.mode)
+
+    def _port_error(self, device: str, exc: OSError) -> None:
+        """Count a serial error; log it on the 1st, 2nd, 4th, 8th... occurrence (a pulled
+        cable must not turn into 400 log lines a second)."""
+        key = f"{device}_port_errors"
+        self.counters[key] += 1
+        n = self.counters[key]
+        if n & (n - 1) == 0:
+            self.log.error(f"{device}.port_error", count=n, error=str(exc))
 
     def _log_transitions(self) -> None:
         for tr in self.modes.transitions:
@@ -262,8 +269,7 @@ class FlightLoop:
         try:
             codes = dev.adc.read_codes(t_ns)
         except OSError as exc:
-            self.counters["adc_port_errors"] += 1
-            self.log.error("adc.port_error", error=str(exc))
+            self._port_error("adc", exc)
             codes = None
         io_ns = perf() - t_io
         z_baro: float | None = None
@@ -284,8 +290,7 @@ class FlightLoop:
         try:
             dev.rc.poll(t_ns)
         except OSError as exc:
-            self.counters["rc_port_errors"] += 1
-            self.log.error("rc.port_error", error=str(exc))
+            self._port_error("rc", exc)
         frame = dev.rc.latest
         rc_valid = frame is not None and t_ns - frame.t_ns <= self._rc_loss_ns
         if rc_valid:
@@ -371,8 +376,7 @@ class FlightLoop:
             try:
                 dev.telemetry.send(encode(record))
             except OSError as exc:
-                self.counters["telemetry_port_errors"] += 1
-                self.log.error("telemetry.port_error", error=str(exc))
+                self._port_error("telemetry", exc)
 
         compute_ns = perf() - t_start - io_ns
         self.window.add(compute_ns)

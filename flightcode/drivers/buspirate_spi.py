@@ -179,7 +179,9 @@ class BusPirateSpi:
         reason = self._enter_once(timeout_s)
         if reason:
             self.counters["resync_failures"] += 1
-            self.log.warning("adc.resync_failed", reason=reason)
+            n = self.counters["resync_failures"]
+            if n & (n - 1) == 0:  # 1st, 2nd, 4th, ...: a dead bridge must not flood the log
+                self.log.warning("adc.resync_failed", failures=n, reason=reason)
             return False
         self.log.info("adc.resynced", resyncs=self.counters["resyncs"])
         return True

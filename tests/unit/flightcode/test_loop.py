@@ -229,6 +229,7 @@ def test_serial_errors_in_flight_are_logged_and_survived() -> None:
     loop.run(max_iterations=20)
     text = out.getvalue()
     for name in ("rc", "esc", "telemetry"):
-        assert f"level=error event={name}.port_error" in text
+        assert f"level=error event={name}.port_error count=1 " in text
+    assert text.count("event=esc.port_error") == 5  # 1, 2, 4, 8, 16 of 20: rate limited
     assert loop.counters["rc_port_errors"] == 20 and loop.counters["esc_port_errors"] == 20
     assert loop.modes.mode is Mode.FLYING  # 20 samples (50 ms) is less than the RC-loss time
