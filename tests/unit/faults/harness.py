@@ -58,6 +58,8 @@ class Bench:
         self.k = 0
         #: per port: (t_ns, bytes) of every chunk the client received, tick by tick
         self.rx: dict[str, list[tuple[int, bytes]]] = {name: [] for name in PORTS}
+        #: plant truth at each tick (what the sensors were given)
+        self.truth: list[Any] = []
 
     def _log(self, t_ns: int, kind: str, name: str, detail: dict[str, Any]) -> None:
         self.events.append((t_ns, kind, name, detail))
@@ -73,6 +75,7 @@ class Bench:
             t = self.k * TICK_NS
             self.schedule.before_tick(t)
             d.actuate_and_step(t)
+            self.truth.append(d.plant.sensors())
             await d.emit_rc(t)
             d.latch_analog(t)
             d.emit_imu(t)
