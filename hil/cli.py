@@ -183,6 +183,56 @@ def report(
         console.print(str(path))
 
 
+@app.command()
+def timing(
+    log: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
+    budget_us: Annotated[float, typer.Option(help="Response-time budget per sample (us).")] = 2500.0,
+    png: Annotated[Optional[Path], typer.Option(help="Histogram PNG (default: LOG_timing.png next to the log).")] = None,
+) -> None:
+    """Timing of the 400 Hz loop from a log: period, response latency, jitter, misses, compute."""
+    from hil.timing import analyze_log, plot_latency
+
+    if not log.exists():
+        _fail(f"{log}: no such file")
+    rep = analyze_log(log, budget_us)
+    table = Table(title=f"loop timing: {log.name}")
+    for col in ("figure", "n", "p50", "p99", "p99.9", "max", "mean"):
+        table.add_column(col, justify="right" if col != "figure" else "left")
+    for name, st in (
+        ("response latency (us): IMU emitted -> ESC command", rep.latency_us),
+        ("ESC command period (us)", rep.period_us),
+        ("period jitter |T - 2500| (us)", rep.jitter_us),
+        ("flight code's own compute (us, telemetry)", rep.compute_us),
+    ):
+        table.add_row(name, str(st.n), *(f"{v:.1f}" for v in (st.p50, st.p99, st.p999, st.max, st.mean)))
+    console.print(table)
+    console.print(
+        f"samples {rep.samples}; over the {rep.budget_us:g} us budget: {rep.misses}; "
+        f"no ESC command at all: {rep.no_command}"
+    )
+    out = plot_latency(log, png or log.with_name(log.name.removesuffix(".mcap") + "_timing.png"), budget_us)
+    if out is not None:
+        console.print(f"histogram: {out}")
+    raise typer.Exit(0 if rep.misses == 0 and rep.no_command == 0 else 1)
+
+
+@app.command()
+def perf(
+    runs: Annotated[int, typer.Option(help="Lockstep runs to take the median of.")] = 3,
+    seconds: Annotated[float, typer.Option(help="Sim seconds per run.")] = 10.0,
+) -> None:
+    """Benchmarks on this machine: plant tick, recording, lockstep RTF, realtime timing."""
+    from hil.perf import measure
+
+    rep = measure(lockstep_runs=runs, lockstep_s=seconds, realtime_s=seconds)
+    table = Table(title="hil perf (medians; shared machines are noisy: compare ratios)")
+    for col in ("figure", "value", "note"):
+        table.add_column(col)
+    for row in rep.rows:
+        table.add_row(*row)
+    console.print(table)
+
+
 def main() -> None:  # pragma: no cover - console entry
     app()
 
