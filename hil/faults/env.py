@@ -368,7 +368,12 @@ class FaultEnv:
         self._filters.append((port, filt))
 
     def sweep(self, t_ns: int) -> None:
-        """Take out wire filters that ended and hold nothing back; drop closed loss windows."""
+        """Start of a tick: take out finished wire filters, drop loss windows that are over."""
+        self.sweep_filters()
+        self.rc_gate.sweep(t_ns)
+
+    def sweep_filters(self) -> None:
+        """Take out wire filters that ended and hold nothing back."""
         for port, filt in list(self._filters):
             if filt.finished:
                 self._filters.remove((port, filt))
@@ -377,7 +382,6 @@ class FaultEnv:
                     lst.remove(filt)
                 if not lst:
                     self.devices.wire_filters.pop(port, None)
-        self.rc_gate.sweep(t_ns)
 
 
 def clamp(x: float, lo: float, hi: float) -> float:

@@ -186,7 +186,9 @@ class FaultSchedule:
             if e.handle == handle:
                 e.end_ns = t_ns if e.end_ns is None else min(e.end_ns, t_ns)
                 e.fault.end_ns = e.end_ns
-                return self._revert(e, t_ns, "stopped")
+                changed = self._revert(e, t_ns, "stopped")
+                self.env.sweep_filters()
+                return changed
         for e in self._pending:
             if e.handle == handle:
                 self._pending.remove(e)
@@ -209,7 +211,7 @@ class FaultSchedule:
         """End of the run: revert every active fault (logged with why = "end of run")."""
         for e in list(self._active):
             self._revert(e, t_ns, "end of run")
-        self.env.sweep(t_ns)
+        self.env.sweep_filters()
 
     # -- background tasks ----------------------------------------------------------------------------
     def _spawn(self, coro: Coroutine[Any, Any, None], name: str) -> None:

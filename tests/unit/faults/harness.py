@@ -112,7 +112,7 @@ class Bench:
 
 # -- IMU (Xbus) -----------------------------------------------------------------------------------
 def xbus_frames(data: bytes) -> tuple[list[Any], FrameParser]:
-    parser = FrameParser()
+    parser = FrameParser(max_payload=0xFFFF)  # the mk4's eMTS message is 1320 bytes
     return parser.feed(data), parser
 
 
