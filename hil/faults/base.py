@@ -158,7 +158,7 @@ class Fault:
                     "name": name,
                     "type": _type_name(field.annotation),
                     "unit": unit_of(name),
-                    "default": None if field.is_required() else field.get_default(call_default_factory=True),
+                    "default": None if field.is_required() else _plain(field.get_default(call_default_factory=True)),
                     "required": field.is_required(),
                     "description": field.description or "",
                 }
@@ -172,7 +172,14 @@ class Fault:
         }
 
 
+def _plain(value: Any) -> Any:
+    """Enums as their values, so listings serialise to JSON."""
+    return value.value if isinstance(value, Enum) else value
+
+
 def _type_name(annotation: Any) -> str:
+    if isinstance(annotation, type) and issubclass(annotation, Enum):
+        return " | ".join(repr(m.value) for m in annotation)
     text = getattr(annotation, "__name__", None) if not getattr(annotation, "__args__", None) else None
     return text or str(annotation).replace("typing.", "")
 
