@@ -144,7 +144,7 @@ async def run_flight_async(
     mode: Mode = Mode.LOCKSTEP,
     seed: int | None = None,
     duration_s: float | None = None,
-    out_dir: Path | None = None,
+    out_dir: Path | str | None = None,
     log_path: Path | None = None,
     record: bool = True,
     progress: Callable[[float, float, str], None] | None = None,
@@ -174,7 +174,7 @@ async def run_flight_async(
     run_start_unix_ns = clock.wall_ns()
     recorder: Recorder | None = None
     if record:
-        out_dir = out_dir or Path("logs")
+        out_dir = Path(out_dir or "logs")
         out_dir.mkdir(parents=True, exist_ok=True)
         log_path = log_path or default_log_path(out_dir, rig, scenario, seed)
         recorder = Recorder(

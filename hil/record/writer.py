@@ -40,6 +40,7 @@ from types import TracebackType
 from typing import Any
 
 import numpy as np
+import orjson
 from mcap.data_stream import RecordBuilder
 from mcap.records import Channel, Schema
 from mcap.well_known import MessageEncoding, SchemaEncoding
@@ -180,6 +181,15 @@ def _sanitise(o: Any) -> tuple[Any, int]:
 
 
 def _encode(payload: Mapping[str, Any]) -> tuple[bytes, int]:
+    # orjson is ~10x faster than json here (it runs for every message on the writer
+    # thread, which shares the GIL with the tick). It writes NaN/inf as null silently, so
+    # output with a null goes the exact (slow) way to count the non-finite values.
+    try:
+        data = orjson.dumps(payload, default=_json_default, option=orjson.OPT_SERIALIZE_NUMPY)
+    except TypeError:
+        data = b"null"
+    if b"null" not in data:
+        return data, 0
     try:
         return json.dumps(payload, separators=(",", ":"), allow_nan=False, default=_json_default).encode(), 0
     except ValueError:  # NaN or inf somewhere
