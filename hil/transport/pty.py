@@ -36,6 +36,7 @@ TIOCPKT_FLUSHREAD = 1
 TIOCPKT_IOCTL = 64
 TCGETS2 = 0x802C542A  # x86_64/aarch64
 BOTHER = 0o010000
+SPIN_NS = 300_000  #: write_confirmed spins this long before yielding to the event loop
 
 _BAUD_BY_CONST = {
     getattr(termios, f"B{rate}"): rate
@@ -167,23 +168,34 @@ class PtyPort(Port):
         return buf[0]
 
     async def write_confirmed(self, data: bytes, timeout_s: float = 0.05) -> bool:
-        """Write, then yield to the loop until the client can read every byte.
+        """Write, then wait until the client can read every byte.
 
         Correct only while the client is not reading this port concurrently (the lockstep
-        tick guarantees that: the flight code is blocked on the IMU). On timeout the
-        delivery is counted in ``stats.delivery_timeouts`` and False is returned.
+        tick guarantees that: the flight code is blocked on the IMU). The kernel's flush
+        work usually lands within tens of microseconds, so the first wait is a short
+        synchronous spin (an event-loop round trip costs more than that); after
+        ``SPIN_NS`` it yields to the loop. On timeout the delivery is counted in
+        ``stats.delivery_timeouts`` and False is returned.
         """
         from hil import clock  # local: keep the import surface of this module small
 
         before = self.client_inq()
         self.write(data)
         want = before + len(data)
-        deadline = clock.monotonic_ns() + int(timeout_s * 1e9)
-        while self.client_inq() < want and not self._pending_blocks(want):
-            if clock.monotonic_ns() > deadline:
+        if self._pending_blocks(want):
+            return True
+        start = clock.monotonic_ns()
+        spin_until = start + SPIN_NS
+        deadline = start + int(timeout_s * 1e9)
+        while self.client_inq() < want:
+            now = clock.monotonic_ns()
+            if now > deadline:
                 self.stats.delivery_timeouts += 1
                 return False
-            await asyncio.sleep(0)
+            if now > spin_until:
+                await asyncio.sleep(0)
+            else:
+                os.sched_yield()
         return True
 
     def _pending_blocks(self, want: int) -> bool:
