@@ -116,6 +116,8 @@ class DeviceSet:
         #: ``poll(t_ns) -> bytes`` releases bytes held back (delay/jitter).
         self.wire_filters: dict[str, list[WireFilter]] = {}
         self.latency: list[LatencySample] = []
+        #: PPM frames generated since the run logger last took them (PpmFrame records)
+        self.rc_frames: list[object] = []
 
     # -- wiring ---------------------------------------------------------------------------------
     def attach(self, ports: dict[str, Port]) -> None:
@@ -252,6 +254,9 @@ class DeviceSet:
 
     async def emit_rc(self, t_ns: int) -> None:
         edges = self.ppm.edges_until(t_ns)
+        frames = self.ppm.take_frames()
+        if frames:
+            self.rc_frames.extend(frames)
         if edges:
             self.rc.feed_edges(edges)
         self.rc.advance(t_ns)

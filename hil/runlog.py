@@ -201,6 +201,13 @@ class RunLogger:
         self.trace.row("esc", t_ns, (*self._last_cmd_us, *d.throttle, *armed))
         rec = self.rec
         t_host = clock.monotonic_ns()
+        if d.rc_frames:
+            for frame in d.rc_frames:
+                pulses = list(frame.pulses_us[:8]) + [0] * max(0, 8 - len(frame.pulses_us))  # type: ignore[attr-defined]
+                self.trace.point("rc.throttle_us", frame.t_ns, pulses[2])  # type: ignore[attr-defined]
+                if rec is not None:
+                    rec.log("/hil/rc/pulses", frame.t_ns, {"t_ns": frame.t_ns, "pulse_us": pulses, "present": True}, t_host)  # type: ignore[attr-defined]
+            d.rc_frames.clear()
         if rec is not None:
             if k % self.truth_divider == 0:
                 rec.log("/sim/truth", t_ns, self._truth_payload(t_ns, st), t_host)
