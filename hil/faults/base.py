@@ -18,7 +18,7 @@ from __future__ import annotations
 import inspect
 from dataclasses import dataclass
 from enum import Enum, unique
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
 from pydantic import BaseModel, ConfigDict
 
@@ -92,23 +92,26 @@ class ScheduledFault:
 
     @property
     def t_ns(self) -> int:
-        return int(round(self.t_s * NS_PER_S))
+        return round(self.t_s * NS_PER_S)
 
     @property
     def end_ns(self) -> int | None:
-        return None if self.duration_s is None else self.t_ns + int(round(self.duration_s * NS_PER_S))
+        return None if self.duration_s is None else self.t_ns + round(self.duration_s * NS_PER_S)
 
 
-class Fault:
-    """Base of the fault kinds (see the module docstring)."""
+P = TypeVar("P", bound=FaultParams)
+
+
+class Fault(Generic[P]):
+    """Base of the fault kinds (see the module docstring); ``P`` is the params model."""
 
     kind: ClassVar[str] = ""
     layer: ClassVar[Layer] = Layer.PLANT
     timing: ClassVar[Timing] = Timing.SPAN
     Params: ClassVar[type[FaultParams]] = NoParams
 
-    def __init__(self, params: FaultParams, env: FaultEnv, rng: np.random.Generator) -> None:
-        self.params = params
+    def __init__(self, params: P, env: FaultEnv, rng: np.random.Generator) -> None:
+        self.params: P = params
         self.env = env
         self.rng = rng
         #: Set by the schedule before ``apply``: when it started and when it is due to end.

@@ -8,7 +8,7 @@ from hil.faults import devices, plant, process, sensors, wire
 from hil.faults.base import Fault
 
 #: kind name -> class, grouped by layer in listing order.
-CATALOGUE: dict[str, type[Fault]] = {
+CATALOGUE: dict[str, type[Fault[Any]]] = {
     cls.kind: cls for cls in (*plant.FAULTS, *sensors.FAULTS, *wire.FAULTS, *devices.FAULTS, *process.FAULTS)
 }
 

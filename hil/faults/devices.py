@@ -9,18 +9,26 @@ train, upstream of the front-end, so they apply to capture and SBUS rigs alike.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, TypeVar
 
 from pydantic import Field
 
 from emulators.rc.script import CENTRE_US
-from hil.faults.base import NS_PER_S, Fault, FaultParams, Layer, NoParams, Refused, Timing
+from hil.faults.base import (
+    NS_PER_S,
+    Fault,
+    FaultParams,
+    Layer,
+    NoParams,
+    Refused,
+    Timing,
+)
 
 ESC_HELP = "ESC index 0..3 (Maestro channel i, drives rotor i)"
 
 
 # -- XSENS ----------------------------------------------------------------------------------------
-class ImuSilence(Fault):
+class ImuSilence(Fault[NoParams]):
     """The XSENS stops streaming (a cut line inside the device): no data messages; it keeps
     counting, so the packet counter jumps when data return."""
 
@@ -41,7 +49,7 @@ class ImuSilence(Fault):
         return {"streaming": not self.env.imu_silence.items}
 
 
-class ImuReset(Fault):
+class ImuReset(Fault[NoParams]):
     """The XSENS resets (brown-out): power cycle at t_s, WakeUp, then the stored configuration
     (turn-on errors drawn again, counters cleared)."""
 
@@ -65,7 +73,7 @@ class CounterJumpParams(FaultParams):
     delta: int = Field(default=100, ge=1, le=0xFFFF, description="added to the packet/sample counter (mod 2^16)")
 
 
-class ImuCounterJump(Fault):
+class ImuCounterJump(Fault[CounterJumpParams]):
     """The XSENS packet counter (legacy: sample counter) jumps by ``delta``."""
 
     kind = "imu.counter_jump"
@@ -89,7 +97,7 @@ def _check_channel(channel: int, rig: Any) -> None:
         raise Refused("channel", f"this rig's receiver sends {n} channels (1..{n})")
 
 
-class RcSignalLoss(Fault):
+class RcSignalLoss(Fault[NoParams]):
     """The receiver stops sending PPM (out of range, transmitter off): no pulses for frames
     starting in [t_s, t_s + duration_s)."""
 
@@ -118,7 +126,7 @@ class GlitchParams(FaultParams):
     )
 
 
-class RcGlitch(Fault):
+class RcGlitch(Fault[GlitchParams]):
     """Glitch pulses on the PPM line: an extra pulse splits a channel in two. Without
     duration_s one glitch (the first frame at or after t_s), else one every interval_s."""
 
@@ -152,7 +160,7 @@ class RcGlitch(Fault):
     def _inject(self, t_ns: int) -> None:
         if self.end_ns is None and self.count:
             return  # a single glitch
-        step = int(round(self.params.interval_s * NS_PER_S))
+        step = round(self.params.interval_s * NS_PER_S)
         while self.next_ns <= t_ns and (self.end_ns is None or self.next_ns < self.end_ns):
             self.env.devices.ppm.inject_glitch(self.next_ns, self.params.width_us, self.params.channel)
             self.count += 1
@@ -168,7 +176,7 @@ class ChannelCountParams(FaultParams):
     n_channels: int = Field(ge=1, le=16, description="channels per PPM frame while the fault lasts")
 
 
-class RcChannelCount(Fault):
+class RcChannelCount(Fault[ChannelCountParams]):
     """The receiver sends a different number of channels (wrong receiver mode/binding)."""
 
     kind = "rc.channel_count"
@@ -201,7 +209,7 @@ class ChannelStuckParams(FaultParams):
     )
 
 
-class RcChannelStuck(Fault):
+class RcChannelStuck(Fault[ChannelStuckParams]):
     """One RC channel is stuck (a broken stick pot, a frozen encoder)."""
 
     kind = "rc.channel_stuck"
@@ -236,7 +244,10 @@ class EscParams(FaultParams):
     esc: int = Field(ge=0, le=3, description=ESC_HELP)
 
 
-class _EscFault(Fault):
+EP = TypeVar("EP", bound=EscParams)
+
+
+class _EscFault(Fault[EP]):
     layer = Layer.DEVICE
 
     @classmethod
@@ -256,7 +267,7 @@ class _EscFault(Fault):
         return {"esc": self.esc, "armed": self.env.devices.escs[self.esc].armed}
 
 
-class EscRefuseArm(_EscFault):
+class EscRefuseArm(_EscFault[EscParams]):
     """An ESC does not arm (failed calibration, wrong throttle range): the motor stays off
     while the fault lasts, and an ESC that armed before is unaffected."""
 
@@ -265,12 +276,11 @@ class EscRefuseArm(_EscFault):
     refuse_arm = True
 
 
-class DesyncParams(FaultParams):
-    esc: int = Field(ge=0, le=3, description=ESC_HELP)
+class DesyncParams(EscParams):
     rate_hz: float = Field(default=2.0, gt=0.0, le=100.0, description="mean rate of desyncs (Poisson), 1/s")
 
 
-class EscDesync(_EscFault):
+class EscDesync(_EscFault[DesyncParams]):
     """Sporadic desyncs: thrust drops to zero for the ESC's desync_duration_s at random
     times (seeded by the ESC's generator)."""
 
@@ -282,12 +292,11 @@ class EscDesync(_EscFault):
         return float(self.params.rate_hz)
 
 
-class EscStuckParams(FaultParams):
-    esc: int = Field(ge=0, le=3, description=ESC_HELP)
+class EscStuckParams(EscParams):
     throttle: float | None = Field(default=None, ge=0.0, le=1.0, description="stuck throttle 0..1; omitted: its value at t_s")
 
 
-class EscStuck(_EscFault):
+class EscStuck(_EscFault[EscStuckParams]):
     """An ESC's output is stuck (ignores its input)."""
 
     kind = "esc.stuck"
@@ -299,17 +308,21 @@ class EscStuck(_EscFault):
 
 
 # -- telemetry link ---------------------------------------------------------------------------------
-class TelemetryDropout(Fault):
-    """The radio link drops out (out of range): every transmission attempt is lost."""
+LP = TypeVar("LP", bound=FaultParams)
 
-    kind = "telemetry.dropout"
+
+class _LinkLoss(Fault[LP]):
+    """Adds a loss probability to the radio link (env.LinkLossComposer)."""
+
     layer = Layer.LINK
-    Params = NoParams
-    loss_probability = 1.0
 
     @classmethod
     def target_of(cls, params: Any) -> str:
         return "telemetry link"
+
+    @property
+    def loss_probability(self) -> float:
+        raise NotImplementedError
 
     def apply(self, t_ns: int) -> dict[str, Any]:
         self.env.link_loss.add(self, t_ns)
@@ -320,23 +333,34 @@ class TelemetryDropout(Fault):
         return {"loss_probability": self.env.link_loss.combined()}
 
 
+class TelemetryDropout(_LinkLoss[NoParams]):
+    """The radio link drops out (out of range): every transmission attempt is lost."""
+
+    kind = "telemetry.dropout"
+    Params = NoParams
+
+    @property
+    def loss_probability(self) -> float:
+        return 1.0
+
+
 class LossParams(FaultParams):
     loss_probability: float = Field(gt=0.0, lt=1.0, description="probability that one transmission attempt is lost")
 
 
-class TelemetryLoss(TelemetryDropout):
+class TelemetryLoss(_LinkLoss[LossParams]):
     """Packet loss on the radio link (interference): each attempt is lost with this probability
     (acknowledged packets are retried by the MAC as usual)."""
 
     kind = "telemetry.loss"
     Params = LossParams
 
-    @property  # type: ignore[override]
+    @property
     def loss_probability(self) -> float:
         return float(self.params.loss_probability)
 
 
-FAULTS: tuple[type[Fault], ...] = (
+FAULTS: tuple[type[Fault[Any]], ...] = (
     ImuSilence, ImuReset, ImuCounterJump,
     RcSignalLoss, RcGlitch, RcChannelCount, RcChannelStuck,
     EscRefuseArm, EscDesync, EscStuck,

@@ -21,7 +21,6 @@ false inside the loss windows).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Coroutine, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
@@ -321,7 +320,7 @@ class RcLossGate:
         if self._inner is None:
             ppm = self._devices.ppm
             self._inner = ppm.script
-            ppm.script = _GatedScript(self._inner, self.windows)
+            ppm.script = _GatedScript(self._inner, self.windows)  # type: ignore[assignment] # duck-typed
         return w
 
     def close(self, w: LossWindow, end_ns: int) -> None:
@@ -383,10 +382,3 @@ class FaultEnv:
                 if not lst:
                     self.devices.wire_filters.pop(port, None)
 
-
-def clamp(x: float, lo: float, hi: float) -> float:
-    return lo if x < lo else hi if x > hi else x
-
-
-def finite(x: float) -> bool:
-    return math.isfinite(x)

@@ -6,7 +6,7 @@ They act through the plant's run-time hooks (hil/plant/plant.py): ``add_wind``/`
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, TypeVar
 
 from pydantic import Field
 
@@ -21,7 +21,7 @@ class WindParams(FaultParams):
     wind_N_mps: Vec3 = Field(description="wind velocity, NED (blowing towards), m/s")
 
 
-class WindStep(Fault):
+class WindStep(Fault[WindParams]):
     """A constant wind (step) added from t_s for duration_s (omitted: to the end)."""
 
     kind = "plant.wind"
@@ -46,7 +46,7 @@ class GustParams(FaultParams):
     shape: GustShape = Field(default=GustShape.ONE_MINUS_COSINE, description="'1-cos' (rises, peaks half-way, returns) or 'step'")
 
 
-class Gust(Fault):
+class Gust(Fault[GustParams]):
     """A discrete gust of peak ``peak_N_mps`` lasting duration_s (required)."""
 
     kind = "plant.gust"
@@ -75,7 +75,7 @@ class PayloadParams(FaultParams):
     r_B_m: Vec3 = Field(default=(0.0, 0.0, 0.1), description="payload position from the body origin, body FRD, m")
 
 
-class Payload(Fault):
+class Payload(Fault[PayloadParams]):
     """The payload changes (picked up, dropped, shifted); the previous one returns at the end."""
 
     kind = "plant.payload"
@@ -112,17 +112,21 @@ class Payload(Fault):
         return {"extra_mass_kg": mass, "mass_kg": self.env.devices.plant.mass_properties.mass_kg}
 
 
-class ThrustLossParams(FaultParams):
+class MotorFailureParams(FaultParams):
     rotor: int = Field(ge=0, le=3, description=ROTOR_HELP)
+
+
+class ThrustLossParams(MotorFailureParams):
     thrust_factor: float = Field(ge=0.0, lt=1.0, description="remaining fraction of thrust and drag torque (0.7 = 30 % loss)")
 
 
-class ThrustLoss(Fault):
-    """Partial thrust loss of one rotor (damaged prop, weak motor)."""
+RP = TypeVar("RP", bound=MotorFailureParams)
 
-    kind = "plant.thrust_loss"
+
+class _RotorFault(Fault[RP]):
+    """Scales one rotor's thrust and drag torque (env.RotorComposer)."""
+
     layer = Layer.PLANT
-    Params = ThrustLossParams
 
     @classmethod
     def target_of(cls, params: Any) -> str:
@@ -134,7 +138,7 @@ class ThrustLoss(Fault):
 
     @property
     def thrust_factor(self) -> float:
-        return float(self.params.thrust_factor)
+        raise NotImplementedError
 
     def apply(self, t_ns: int) -> dict[str, Any]:
         self.env.rotors.add(self, t_ns)
@@ -145,11 +149,18 @@ class ThrustLoss(Fault):
         return {"rotor": self.rotor, "thrust_factor": self.env.rotors.factors()[self.rotor]}
 
 
-class MotorFailureParams(FaultParams):
-    rotor: int = Field(ge=0, le=3, description=ROTOR_HELP)
+class ThrustLoss(_RotorFault[ThrustLossParams]):
+    """Partial thrust loss of one rotor (damaged prop, weak motor)."""
+
+    kind = "plant.thrust_loss"
+    Params = ThrustLossParams
+
+    @property
+    def thrust_factor(self) -> float:
+        return float(self.params.thrust_factor)
 
 
-class MotorFailure(ThrustLoss):
+class MotorFailure(_RotorFault[MotorFailureParams]):
     """One motor (or its prop) fails: no thrust, no drag torque on that rotor."""
 
     kind = "plant.motor_failure"
@@ -164,7 +175,7 @@ class BatterySagParams(FaultParams):
     extra_ohm: float = Field(gt=0.0, le=10.0, description="added series resistance (aged pack, bad connector), ohm")
 
 
-class BatterySag(Fault):
+class BatterySag(Fault[BatterySagParams]):
     """The battery sags more under load: extra series resistance."""
 
     kind = "plant.battery_sag"
@@ -188,4 +199,4 @@ class BatterySag(Fault):
         return {"extra_ohm": sum(i.extra_ohm for i in self.env.battery.items)}
 
 
-FAULTS: tuple[type[Fault], ...] = (WindStep, Gust, Payload, MotorFailure, ThrustLoss, BatterySag)
+FAULTS: tuple[type[Fault[Any]], ...] = (WindStep, Gust, Payload, MotorFailure, ThrustLoss, BatterySag)

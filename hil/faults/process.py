@@ -21,7 +21,7 @@ from typing import Any
 from hil.faults.base import Fault, Layer, NoParams, Timing
 
 
-class ProcessKill(Fault):
+class ProcessKill(Fault[NoParams]):
     """The flight code dies (SIGKILL) at t_s and does not come back."""
 
     kind = "process.kill"
@@ -42,7 +42,7 @@ class ProcessKill(Fault):
         return {"pid": pid, "was_running": running}
 
 
-class ProcessRestart(Fault):
+class ProcessRestart(Fault[NoParams]):
     """The flight code is killed at t_s and started again after duration_s (its downtime)."""
 
     kind = "process.restart"
@@ -74,4 +74,4 @@ class ProcessRestart(Fault):
         return {"restart_at_s": t_ns / 1e9}
 
 
-FAULTS: tuple[type[Fault], ...] = (ProcessKill, ProcessRestart)
+FAULTS: tuple[type[Fault[Any]], ...] = (ProcessKill, ProcessRestart)

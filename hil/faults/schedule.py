@@ -175,7 +175,7 @@ class FaultSchedule:
         problem = self._runtime_problem(spec)
         if problem:
             raise ConfigError(problem)
-        end_ns = None if duration_s is None else t_ns + int(round(duration_s * NS_PER_S))
+        end_ns = None if duration_s is None else t_ns + round(duration_s * NS_PER_S)
         e = self._entry(spec, self._rng.spawn(1)[0], t_ns, end_ns)
         self._apply(e, t_ns)
         return e.handle

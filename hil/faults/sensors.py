@@ -15,7 +15,7 @@ effect; ADC channel stuck or open; ADC reference drift.
 from __future__ import annotations
 
 import math
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 from pydantic import Field
 
@@ -43,7 +43,10 @@ def _nonzero(key: str, *vectors: Any) -> None:
 
 
 # -- IMU ----------------------------------------------------------------------------------------
-class _ImuFault(Fault):
+P = TypeVar("P", bound=FaultParams)
+
+
+class _ImuFault(Fault[P]):
     """Base of the IMU motion faults."""
 
     layer = Layer.SENSOR
@@ -70,7 +73,7 @@ class ImuBiasParams(FaultParams):
     acc_bias_S_mps2: Vec3 = Field(default=ZERO3, description="acceleration bias, sensor axes, m/s^2")
 
 
-class ImuBias(_ImuFault):
+class ImuBias(_ImuFault[ImuBiasParams]):
     """Constant bias on the XSENS rate of turn and/or acceleration."""
 
     kind = "imu.bias"
@@ -90,7 +93,7 @@ class ImuDriftParams(FaultParams):
     acc_drift_S_mps2_per_s: Vec3 = Field(default=ZERO3, description="acceleration bias growth, sensor axes, m/s^2 per s")
 
 
-class ImuDrift(_ImuFault):
+class ImuDrift(_ImuFault[ImuDriftParams]):
     """A bias growing linearly from zero at t_s (thermal drift)."""
 
     kind = "imu.drift"
@@ -111,7 +114,7 @@ class ImuScaleParams(FaultParams):
     acc_scale: float | Vec3 = Field(default=1.0, description="acceleration scale factor (one or per axis)")
 
 
-class ImuScale(_ImuFault):
+class ImuScale(_ImuFault[ImuScaleParams]):
     """Scale-factor error on the rate of turn and/or acceleration."""
 
     kind = "imu.scale"
@@ -133,7 +136,7 @@ class ImuNoiseParams(FaultParams):
     signals: Literal["gyro", "acc", "both"] = Field(default="both", description="which outputs get noisier")
 
 
-class ImuNoise(_ImuFault):
+class ImuNoise(_ImuFault[ImuNoiseParams]):
     """More white noise on the rate of turn and/or acceleration (vibration, failing sensor).
 
     Independent noise of rms sigma * sqrt(k^2 - 1) is added, so the total is k times the
@@ -173,7 +176,7 @@ class ImuNoise(_ImuFault):
         )
 
 
-class ImuFreeze(_ImuFault):
+class ImuFreeze(_ImuFault[NoParams]):
     """The IMU's sensing is stuck: orientation, rates and acceleration hold the values of t_s.
 
     The device keeps streaming (counters, time stamps) and its own noise stays on top.
@@ -198,7 +201,7 @@ class ImuSaturationParams(FaultParams):
     acc_range_mps2: float | None = Field(default=None, gt=0.0, description="acceleration clips at +- this, m/s^2")
 
 
-class ImuSaturation(_ImuFault):
+class ImuSaturation(_ImuFault[ImuSaturationParams]):
     """The IMU saturates at a smaller range (wrong range setting, damaged sensor): each axis
     clips at +- the given range. The device's clip flags only report its own ranges."""
 
@@ -230,7 +233,7 @@ def _needs(rig: Any, signals: tuple[str, ...], what: str) -> None:
         raise Refused("kind", f"no ADC channel of this rig is wired to the {what} ([analog] channel_map)")
 
 
-class _BaroFault(Fault):
+class _BaroFault(Fault[P]):
     layer = Layer.SENSOR
 
     @classmethod
@@ -264,7 +267,7 @@ class BaroBiasParams(FaultParams):
     bias_Pa: float = Field(description="pressure offset, Pa (+12 Pa reads about 1 m lower)")
 
 
-class BaroBias(_BaroFault):
+class BaroBias(_BaroFault[BaroBiasParams]):
     """Constant pressure offset on the barometer."""
 
     kind = "baro.bias"
@@ -283,7 +286,7 @@ class BaroDriftParams(FaultParams):
     drift_Pa_per_s: float = Field(description="pressure offset growth from t_s, Pa/s")
 
 
-class BaroDrift(_BaroFault):
+class BaroDrift(_BaroFault[BaroDriftParams]):
     """A pressure offset growing linearly from zero at t_s (thermal drift, weather)."""
 
     kind = "baro.drift"
@@ -302,7 +305,7 @@ class BaroScaleParams(FaultParams):
     scale: float = Field(gt=0.0, le=2.0, description="sensed pressure = true pressure x scale")
 
 
-class BaroScale(_BaroFault):
+class BaroScale(_BaroFault[BaroScaleParams]):
     """Scale error of the barometer's pressure reading."""
 
     kind = "baro.scale"
@@ -322,7 +325,7 @@ class NoiseFactorParams(FaultParams):
     noise_factor: float = Field(gt=1.0, le=1000.0, description="the sensor's noise rms becomes this many times larger")
 
 
-class BaroNoise(_BaroFault):
+class BaroNoise(_BaroFault[NoiseFactorParams]):
     """More barometer noise (turbulence at the port, failing sensor)."""
 
     kind = "baro.noise"
@@ -332,7 +335,7 @@ class BaroNoise(_BaroFault):
         return BaroFault(noise_factor=self.params.noise_factor)
 
 
-class BaroFreeze(_BaroFault):
+class BaroFreeze(_BaroFault[NoParams]):
     """The barometer output is stuck at its value at t_s."""
 
     kind = "baro.freeze"
@@ -349,7 +352,7 @@ class BaroGroundEffectParams(FaultParams):
     decay_height_m: float = Field(default=0.5, gt=0.0, description="the error falls as exp(-h / decay_height_m)")
 
 
-class BaroGroundEffect(_BaroFault):
+class BaroGroundEffect(_BaroFault[BaroGroundEffectParams]):
     """Extra pressure error near the ground: error_at_ground_Pa * exp(-h / decay_height_m),
     h the vehicle's height above the field (on top of the plant's own rotor-wash model)."""
 
@@ -368,7 +371,7 @@ class BaroGroundEffect(_BaroFault):
 
 
 # -- accelerometer (ADXL335 through the analog front-end) -------------------------------------------
-class _AccelFault(Fault):
+class _AccelFault(Fault[P]):
     layer = Layer.SENSOR
 
     @classmethod
@@ -405,7 +408,7 @@ class AccelBiasParams(FaultParams):
     bias_B_mps2: Vec3 = Field(description="specific-force offset, body axes FRD, m/s^2")
 
 
-class AccelBias(_AccelFault):
+class AccelBias(_AccelFault[AccelBiasParams]):
     """Constant offset on the ADXL335 reading."""
 
     kind = "accel.bias"
@@ -424,7 +427,7 @@ class AccelDriftParams(FaultParams):
     drift_B_mps2_per_s: Vec3 = Field(description="offset growth from t_s, body axes FRD, m/s^2 per s")
 
 
-class AccelDrift(_AccelFault):
+class AccelDrift(_AccelFault[AccelDriftParams]):
     """An ADXL335 offset growing linearly from zero at t_s."""
 
     kind = "accel.drift"
@@ -444,7 +447,7 @@ class AccelScaleParams(FaultParams):
     scale: float = Field(gt=0.0, le=4.0, description="sensed specific force = true x scale (all axes)")
 
 
-class AccelScale(_AccelFault):
+class AccelScale(_AccelFault[AccelScaleParams]):
     """Sensitivity error of the ADXL335 (all axes)."""
 
     kind = "accel.scale"
@@ -460,7 +463,7 @@ class AccelScale(_AccelFault):
         return AccelFault(scale=self.params.scale)
 
 
-class AccelNoise(_AccelFault):
+class AccelNoise(_AccelFault[NoiseFactorParams]):
     """More ADXL335 noise (vibration, a loose board)."""
 
     kind = "accel.noise"
@@ -470,7 +473,7 @@ class AccelNoise(_AccelFault):
         return AccelFault(noise_factor=self.params.noise_factor)
 
 
-class AccelFreeze(_AccelFault):
+class AccelFreeze(_AccelFault[NoParams]):
     """The ADXL335 outputs are stuck at their values at t_s."""
 
     kind = "accel.freeze"
@@ -480,7 +483,7 @@ class AccelFreeze(_AccelFault):
         return AccelFault(frozen=True)
 
 
-class AccelSaturation(_AccelFault):
+class AccelSaturation(_AccelFault[NoParams]):
     """Every ADXL335 axis pinned to its output rail (the side its reading is on), as under
     a shock beyond its +-3 g range."""
 
@@ -497,7 +500,7 @@ class ChannelStuckParams(FaultParams):
     stuck_V: float = Field(ge=0.0, description="the input's voltage while stuck, V")
 
 
-class AdcChannelStuck(Fault):
+class AdcChannelStuck(Fault[ChannelStuckParams]):
     """An ADC input is stuck at a voltage (shorted line, dead amplifier)."""
 
     kind = "adc.channel_stuck"
@@ -535,7 +538,7 @@ class ChannelParams(FaultParams):
     channel: int = Field(ge=0, le=3, description="MCP3204 input CH0..CH3")
 
 
-class AdcChannelOpen(Fault):
+class AdcChannelOpen(Fault[ChannelParams]):
     """An ADC input is disconnected (broken wire): it floats from its last voltage towards
     the rig's ``open_input_level_V`` with noise."""
 
@@ -571,7 +574,7 @@ class VrefParams(FaultParams):
     drift_V_per_s: float = Field(default=0.0, ge=-1.0, le=1.0, description="reference change per second from t_s, V/s")
 
 
-class AdcVrefDrift(Fault):
+class AdcVrefDrift(Fault[VrefParams]):
     """The MCP3204's reference moves (a sagging 5 V rail): every code scales by Vref0/Vref."""
 
     kind = "adc.vref_drift"
@@ -602,7 +605,7 @@ class AdcVrefDrift(Fault):
         return {"vref_V": self.env.devices.mcp.vref_V}
 
 
-FAULTS: tuple[type[Fault], ...] = (
+FAULTS: tuple[type[Fault[Any]], ...] = (
     ImuBias, ImuDrift, ImuScale, ImuNoise, ImuFreeze, ImuSaturation,
     BaroBias, BaroDrift, BaroScale, BaroNoise, BaroFreeze, BaroGroundEffect,
     AccelBias, AccelDrift, AccelScale, AccelNoise, AccelFreeze, AccelSaturation,

@@ -16,7 +16,7 @@ re-clocks the 8N1 bit stream at the wrong rate with the XSENS model's UART recei
 from __future__ import annotations
 
 from collections import Counter, deque
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal, TypeVar
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -47,11 +47,14 @@ def _directions(d: Direction) -> tuple[Direction, ...]:
     return (Direction.TX, Direction.RX) if d is Direction.BOTH else (d,)
 
 
-class WireFault(Fault):
+WP = TypeVar("WP", bound=WireParams)
+
+
+class WireFault(Fault[WP]):
     """Base of the wire faults: checks the port and direction, installs itself as a filter."""
 
     layer = Layer.WIRE
-    Params = WireParams
+    Params: ClassVar[type[FaultParams]] = WireParams
 
     @classmethod
     def check(cls, params: Any, rig: Any) -> None:
@@ -113,7 +116,7 @@ class WireFault(Fault):
         return data
 
 
-class Silence(WireFault):
+class Silence(WireFault[WireParams]):
     """The line goes dead (unplugged connector, cut wire): no bytes pass."""
 
     kind = "wire.silence"
@@ -126,7 +129,7 @@ class ByteLossParams(WireParams):
     loss_probability: float = Field(gt=0.0, le=1.0, description="probability that a byte is lost")
 
 
-class ByteLoss(WireFault):
+class ByteLoss(WireFault[ByteLossParams]):
     """Bytes go missing independently (a receiver overrun, a marginal connection)."""
 
     kind = "wire.byte_loss"
@@ -141,7 +144,7 @@ class BitFlipParams(WireParams):
     bit_error_rate: float = Field(gt=0.0, le=0.5, description="probability that a data bit is inverted")
 
 
-class BitFlips(WireFault):
+class BitFlips(WireFault[BitFlipParams]):
     """Bit errors (noise on the line): each data bit inverted with probability bit_error_rate."""
 
     kind = "wire.bit_flips"
@@ -160,7 +163,10 @@ class FrameParams(WireParams):
     probability: float = Field(default=1.0, gt=0.0, le=1.0, description="fraction of frames affected")
 
 
-class _FrameFault(WireFault):
+FP = TypeVar("FP", bound=FrameParams)
+
+
+class _FrameFault(WireFault[FP]):
     """Acts on the frames of the port's protocol (a chunk where there are none)."""
 
     Params = FrameParams
@@ -188,7 +194,7 @@ class BadChecksumParams(FrameParams):
     )
 
 
-class BadChecksum(_FrameFault):
+class BadChecksum(_FrameFault[BadChecksumParams]):
     """Frames arrive with a wrong checksum (the receiver must drop them)."""
 
     kind = "wire.bad_checksum"
@@ -219,7 +225,7 @@ class BadChecksum(_FrameFault):
         return corrupt_checksum(proto, frame, self.rng)
 
 
-class Truncate(_FrameFault):
+class Truncate(_FrameFault[FrameParams]):
     """Frames are cut short (a receiver dropping the tail): each hit frame keeps a random
     1 .. n-1 of its n bytes."""
 
@@ -231,7 +237,7 @@ class Truncate(_FrameFault):
         return frame[: int(self.rng.integers(1, len(frame)))]
 
 
-class Duplicate(_FrameFault):
+class Duplicate(_FrameFault[FrameParams]):
     """Frames arrive twice (a retransmitting bridge, a buffer replayed)."""
 
     kind = "wire.duplicate"
@@ -245,7 +251,7 @@ class DelayParams(WireParams):
     jitter_s: float = Field(default=0.0, ge=0.0, le=10.0, description="plus a uniform random 0..jitter_s per chunk, s")
 
 
-class Delay(WireFault):
+class Delay(WireFault[DelayParams]):
     """Added latency and jitter on the way to the flight code (a busy USB-serial bridge).
 
     Chunks are held and released by the tick loop's poll once their time has come (a tick's
@@ -276,7 +282,7 @@ class Delay(WireFault):
     def process(self, data: bytes, t_ns: int, d: Direction) -> bytes:
         p = self.params
         delay_ns = p.delay_s * NS_PER_S + (self.rng.uniform(0.0, p.jitter_s) * NS_PER_S if p.jitter_s else 0.0)
-        return self._hold(data, t_ns + int(round(delay_ns)))
+        return self._hold(data, t_ns + round(delay_ns))
 
     def after_end(self, data: bytes, t_ns: int, d: Direction) -> bytes:
         return self._hold(data, t_ns) if self.held else data
@@ -319,7 +325,7 @@ def nominal_baud_bps(rig: Any, port: str) -> int:
     return BD_RATES[bd] if bd < len(BD_RATES) else int(bd)
 
 
-class BaudMismatch(WireFault):
+class BaudMismatch(WireFault[BaudParams]):
     """The device's UART runs at the wrong rate (bad crystal, wrong setting): the flight
     code receives what a UART at its own rate makes of the re-clocked bit stream (garbage,
     framing errors delivered as 00, fewer or more bytes), and the device garbles what the
@@ -351,6 +357,7 @@ class BaudMismatch(WireFault):
         p = self.params
         if p.device_baud_bps is not None:
             return int(p.device_baud_bps)
+        assert p.rate_error is not None  # the model requires one of the two
         return max(1, round(nominal_baud_bps(self.env.devices.rig, p.port) * (1.0 + p.rate_error)))
 
     def applied(self) -> dict[str, Any]:
@@ -364,6 +371,6 @@ class BaudMismatch(WireFault):
         return receive_at_wrong_baud(data, host, dev)
 
 
-FAULTS: tuple[type[Fault], ...] = (
+FAULTS: tuple[type[Fault[Any]], ...] = (
     Silence, ByteLoss, BitFlips, BadChecksum, Truncate, Duplicate, Delay, BaudMismatch,
 )

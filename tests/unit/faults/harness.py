@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import itertools
 import struct
 from collections.abc import Sequence
 from typing import Any
@@ -88,7 +89,7 @@ class Bench:
 
     async def run_to(self, t_s: float) -> None:
         """Tick until sim time reaches ``t_s`` (inclusive)."""
-        end = int(round(t_s * S))
+        end = round(t_s * S)
         while self.k * TICK_NS <= end:
             await self.tick()
 
@@ -99,11 +100,11 @@ class Bench:
 
     def received(self, port: str, t0_s: float = 0.0, t1_s: float = 1e9) -> bytes:
         """Bytes the client got in ticks with t0 <= t < t1."""
-        a, b = int(round(t0_s * S)), int(round(t1_s * S))
+        a, b = round(t0_s * S), round(t1_s * S)
         return b"".join(d for t, d in self.rx[port] if a <= t < b)
 
     def chunks(self, port: str, t0_s: float = 0.0, t1_s: float = 1e9) -> list[tuple[int, bytes]]:
-        a, b = int(round(t0_s * S)), int(round(t1_s * S))
+        a, b = round(t0_s * S), round(t1_s * S)
         return [(t, d) for t, d in self.rx[port] if a <= t < b]
 
     def fault_events(self, suffix: str = "") -> list[tuple[int, str, dict[str, Any]]]:
@@ -173,7 +174,7 @@ def set_multiple_targets(pulse_us: Sequence[float]) -> bytes:
     """Maestro Set Multiple Targets (0x9F) for channels 0..n-1, targets in quarter-us."""
     out = bytearray((0x9F, len(pulse_us), 0))
     for us in pulse_us:
-        q = int(round(us * 4))
+        q = round(us * 4)
         out += bytes((q & 0x7F, (q >> 7) & 0x7F))
     return bytes(out)
 
@@ -210,7 +211,7 @@ def ppm_frames(records: Sequence[Any], sync_min_us: int = 2700) -> list[list[int
     times = falling_edge_times_us(records)
     frames: list[list[int]] = []
     cur: list[int] = []
-    for a, b in zip(times, times[1:]):
+    for a, b in itertools.pairwise(times):
         w = b - a
         if w >= sync_min_us:
             if cur:

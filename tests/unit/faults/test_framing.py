@@ -15,8 +15,10 @@ from hypothesis import strategies as st
 
 from emulators.rc.capture import CaptureRecord, crc8, pack_record
 from emulators.rc.sbus import SbusFrame, pack_sbus
-from emulators.xbee.frames import ApiParser, encode_frame as xbee_frame
-from emulators.xsens.codec import FrameParser, encode_frame as xbus_frame
+from emulators.xbee.frames import ApiParser
+from emulators.xbee.frames import encode_frame as xbee_frame
+from emulators.xsens.codec import FrameParser
+from emulators.xsens.codec import encode_frame as xbus_frame
 from hil.faults.framing import Protocol, corrupt_checksum, flip_last_byte, split
 
 H = bytes.fromhex

@@ -11,7 +11,14 @@ from typing import Any
 import pytest
 
 from hil.config import ConfigError
-from hil.faults import CATALOGUE, Layer, Timing, catalogue_table, load_faults, print_catalogue
+from hil.faults import (
+    CATALOGUE,
+    Layer,
+    Timing,
+    catalogue_table,
+    load_faults,
+    print_catalogue,
+)
 from hil.rig import Rig
 from hil.scenario import Scenario
 

@@ -10,7 +10,7 @@ import pytest
 
 from hil.faults import load_faults
 from hil.rig import Rig
-from tests.unit.faults.harness import S, Bench, arm_and_spin
+from tests.unit.faults.harness import Bench, S, arm_and_spin
 
 SPIN_US = 1500.0  # ~0.48 throttle: rotors turn, the vehicle stays on the ground
 

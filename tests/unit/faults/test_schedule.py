@@ -106,7 +106,7 @@ async def test_finish_restores_every_device(rig: Rig) -> None:
     d = b.devices
     assert "set_motion" not in d.imu.__dict__ and type(d.ppm.script) is StickScript
     assert d.wire_filters == {} and d.analog.accel_fault == AccelFault() and d.mcp.vref_V == 5.0
-    assert not d.escs[1]._stuck and b.schedule.env.rotors.factors() == [1.0] * 4  # noqa: SLF001
+    assert not d.escs[1]._stuck and b.schedule.env.rotors.factors() == [1.0] * 4
     assert b.schedule.env.link_loss.combined() == rig.telemetry.link.loss_probability
     assert len(b.fault_events(" end")) == 9
 
@@ -118,14 +118,14 @@ def test_rng_children_follow_file_order(rig: Rig) -> None:
     ]
     one = Bench(rig, load_faults(raw, rig, source="s")).schedule
     two = Bench(rig, load_faults(raw, rig, source="s")).schedule
-    first = [e.fault.rng.random() for e in one._pending]  # noqa: SLF001
-    assert first == [e.fault.rng.random() for e in two._pending]  # noqa: SLF001
-    assert one._pending[0].spec.t_s == 1.0  # noqa: SLF001 - sorted by time, seeded by file position
+    first = [e.fault.rng.random() for e in one._pending]
+    assert first == [e.fault.rng.random() for e in two._pending]
+    assert one._pending[0].spec.t_s == 1.0
     # a fault's draws depend on the seed and its place in the file, not on what follows it
     alone = Bench(rig, load_faults(raw[:1], rig, source="s")).schedule
-    assert alone._pending[0].fault.rng.random() == first[1] != first[0]  # noqa: SLF001
+    assert alone._pending[0].fault.rng.random() == first[1] != first[0]
     other_seed = Bench(rig, load_faults(raw[:1], rig, source="s"), seed=2).schedule
-    assert other_seed._pending[0].fault.rng.random() != first[1]  # noqa: SLF001
+    assert other_seed._pending[0].fault.rng.random() != first[1]
 
 
 # -- overlapping faults always combine to the right settings ---------------------------------------

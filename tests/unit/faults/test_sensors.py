@@ -13,7 +13,7 @@ import numpy as np
 from emulators.analog.inverse import f_B_mps2_from_codes, pressure_Pa_from_code
 from hil.faults import load_faults
 from hil.rig import Rig
-from tests.unit.faults.harness import S, Bench, adc_enter_spi, adc_series, imu_samples
+from tests.unit.faults.harness import Bench, adc_enter_spi, adc_series, imu_samples
 
 G = 9.80665
 OMEGA_B = (1.0, -0.5, 0.3)  # rad/s, a tumble so rates and attitude move
@@ -36,7 +36,7 @@ async def imu_twins(rig: Rig, raw: list[dict[str, Any]], until_s: float = 0.3, m
 def series(b: Bench, key: str, t0_s: float = 0.0, t1_s: float = 1e9) -> np.ndarray:
     """One MTData2 field per sample (rows at 400 Hz from t = 0)."""
     arr = np.array([s[key] for s in imu_samples(b.received("imu"))], dtype=float)
-    return arr[int(round(t0_s * 400)) : int(round(t1_s * 400))] if t1_s < 1e9 else arr[int(round(t0_s * 400)) :]
+    return arr[round(t0_s * 400) : round(t1_s * 400)] if t1_s < 1e9 else arr[round(t0_s * 400) :]
 
 
 def window(raw: dict[str, Any]) -> dict[str, Any]:
@@ -126,7 +126,7 @@ def pressures(rig: Rig, codes: np.ndarray) -> np.ndarray:
 
 
 def rows(t0_s: float, t1_s: float) -> slice:
-    return slice(int(round(t0_s * 400)), int(round(t1_s * 400)))
+    return slice(round(t0_s * 400), round(t1_s * 400))
 
 
 async def test_baro_bias_drift_and_scale_move_the_pressure_reading(rig: Rig) -> None:
@@ -235,7 +235,7 @@ async def test_adc_channel_stuck_and_open(rig: Rig) -> None:
         {"kind": "adc.channel_stuck", "t_s": 0.05, "duration_s": 0.05, "channel": 2, "stuck_V": 2.0},
         {"kind": "adc.channel_open", "t_s": 0.05, "duration_s": 0.2, "channel": 1},
     ]
-    f, c, b = await adc_twins(rig, raw, 140)
+    f, c, _b = await adc_twins(rig, raw, 140)
     assert set(f[rows(0.05, 0.1), 2]) <= {1637, 1638, 1639} and abs(c[rows(0.05, 0.1), 2].mean() - 1638) > 100
     assert np.abs(f[rows(0.11, 0.15), 2] - c[rows(0.11, 0.15), 2]).max() <= 2  # released
     cut = f[rows(0.05, 0.25), 1]

@@ -69,7 +69,7 @@ async def test_bit_flips_at_the_given_rate_without_changing_lengths(frig: Rig) -
     b, clean = await twins(frig, [window({"kind": "wire.bit_flips", "port": "imu", "bit_error_rate": 0.01})], 0.3)
     got, want = b.received("imu", 0.1, 0.2), clean.received("imu", 0.1, 0.2)
     assert len(got) == len(want)
-    flips = sum(bin(x ^ y).count("1") for x, y in zip(got, want))
+    flips = sum((x ^ y).bit_count() for x, y in zip(got, want))
     assert 0.008 < flips / (8 * len(want)) < 0.012
     assert b.received("imu", 0.2) == clean.received("imu", 0.2)
     end = b.fault_events(" end")[0][2]
