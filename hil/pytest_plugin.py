@@ -1,0 +1,711 @@
+"""pytest plugin ``hil_bench``: closed-loop lockstep runs driven from users' own tests.
+
+    async def test_hover(hil_bench):
+        bench = await hil_bench.start(rig="paper-quad", scenario="hover", duration_s=15)
+        await bench.until(lambda b: b.truth.h_m > 1.5, timeout_s=8)      # sim seconds
+        await bench.always(lambda b: 1.0 < b.truth.h_m < 3.0, for_s=2)
+        async with bench.fault("imu.silence"):
+            await bench.until(lambda b: max(b.esc_command.pulse_us) <= 1000, timeout_s=0.05)
+
+Each ``start`` is one :func:`hil.run.run_flight_async` (own run dir, ptys, flight-code
+process, MCAP) running as a task in the test's event loop. The bench does not pause for
+the test: it ticks whenever the test awaits, and the flight code's IMU watchdog is a
+wall-clock read timeout, so test code must not hold the event loop for long between
+awaits (stalls over ``STALL_WARN_S`` are reported as :class:`HilBenchStallWarning`).
+``until`` / ``always`` / ``run_for`` judge the predicate at every tick (hook after the
+tick, no polling) and return the sim time of the deciding tick; a few more ticks may pass
+before the test's next statement runs. Teardown stops the run (flight code stopped, MCAP
+finalized); a failing test's MCAP is kept and its path printed. See docs/pytest-plugin.md.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import inspect
+import math
+import re
+import shutil
+import tempfile
+import warnings
+from collections.abc import AsyncIterator, Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import pytest
+
+if TYPE_CHECKING:
+    from emulators.base import DeviceEvent
+    from hil.bench import TickLoop
+    from hil.devices import DeviceSet
+    from hil.faults import FaultHandle, FaultSchedule, ScheduledFault
+    from hil.rig import Rig
+    from hil.run import RunResult
+    from hil.scenario import Scenario
+    from hil.scenario_runner import ScenarioRunner
+    from hil.timing import TimingReport
+    from hil.trace import Trace
+    from hil.transport.base import WireRecord
+
+S = 1_000_000_000
+RAD2DEG = 180.0 / math.pi
+#: sim duration of an inline scenario that does not give one (the test usually stops first)
+INLINE_DURATION_S = 60.0
+#: event-loop stalls longer than this are reported (the flight code's IMU watchdog is 0.1 s)
+STALL_WARN_S = 0.05
+_STALL_PERIOD_S = 0.02
+
+Predicate = Callable[["Bench"], object]
+
+
+class RunEnded(AssertionError):
+    """The run ended (duration over, flight code exited, boot failed) before the awaited tick."""
+
+
+class SimTimeout(AssertionError):
+    """``until``: the predicate did not hold within ``timeout_s`` of sim time."""
+
+
+class PredicateFailed(AssertionError):
+    """``always``: the predicate was false at some tick."""
+
+
+class HilBenchStallWarning(UserWarning):
+    """The event loop was held (by the test's own code, usually) while the bench ran."""
+
+
+@dataclass(frozen=True)
+class Truth:
+    """Plant truth at the last tick: NED world, FRD body, ZYX Euler angles in degrees."""
+
+    t_s: float
+    h_m: float  #: altitude above the field
+    climb_mps: float  #: -v_N[2]
+    roll_deg: float
+    pitch_deg: float
+    yaw_deg: float
+    p_N_m: tuple[float, float, float]
+    v_N_mps: tuple[float, float, float]
+    omega_B_degps: tuple[float, float, float]
+    rotor_omega_radps: tuple[float, float, float, float]
+    on_ground: bool
+    battery_V: float
+    state: Any = field(repr=False)  #: the full hil.plant.records.PlantState
+
+
+@dataclass(frozen=True)
+class EscCommand:
+    """The flight code's last Maestro command: pulse widths of motors 0..3 (us), at ``t_s``."""
+
+    t_s: float
+    pulse_us: tuple[float, float, float, float]
+
+
+@dataclass
+class InjectedFault:
+    """One ``bench.fault`` activation: sim times of its start and end (None while active)."""
+
+    kind: str
+    handle: FaultHandle
+    t_start_s: float
+    t_end_s: float | None = None
+
+
+@dataclass
+class _Watch:
+    kind: str  # "until" | "always" | "time"
+    predicate: Predicate | None
+    deadline_ns: int
+    future: asyncio.Future[float]
+    label: str
+    t0_ns: int
+
+
+def _label_of(predicate: Callable[..., object]) -> str:
+    name = getattr(predicate, "__name__", repr(predicate))
+    if name != "<lambda>":
+        return name
+    try:
+        text = " ".join(inspect.getsource(predicate).split())
+    except (OSError, TypeError):
+        return name
+    m = re.search(r"lambda\b.*", text)
+    return (m.group(0) if m else text)[:120]
+
+
+class Bench:
+    """One closed-loop run started by :meth:`HilBench.start` (do not build it directly)."""
+
+    def __init__(self, rig: Rig, scenario: Scenario, *, source: Path | None, seed: int | None,
+                 duration_s: float | None, mode: str, log_path: Path, faults: Sequence[ScheduledFault]) -> None:
+        from hil.telemetry import TelemetryDecoder
+
+        self.rig, self.scenario, self.source = rig, scenario, source
+        self.seed = scenario.scenario.seed if seed is None else seed
+        self.duration_s = scenario.scenario.duration_s if duration_s is None else duration_s
+        self.mode, self.log_path = mode, log_path
+        self.loop: TickLoop | None = None
+        self.devices: DeviceSet | None = None
+        self.runner: ScenarioRunner | None = None
+        self.schedule: FaultSchedule | None = None
+        self.stalls: list[tuple[float, float]] = []  #: (sim t_s, stall s) of event-loop stalls
+        self.stopped_by_test = False
+        self._faults = list(faults)
+        self._own_schedule = False
+        self._setup_error: Exception | None = None
+        self._task: asyncio.Task[RunResult] | None = None
+        self._watches: list[_Watch] = []
+        self._requests: list[tuple[Callable[[int], Any], asyncio.Future[Any]]] = []
+        self._before: Callable[[int, int], None] | None = None
+        self._after: Callable[[int, int], None] | None = None
+        self._last_k = -1
+        self._imu: DeviceEvent | None = None
+        self._esc: EscCommand | None = None
+        self._esc_us = [0.0, 0.0, 0.0, 0.0]
+        self._telemetry: dict[str, Any] | None = None
+        self._decoder = TelemetryDecoder()
+        self._events: dict[str, DeviceEvent] = {}
+        self._stall_handle: asyncio.TimerHandle | None = None
+        self._stall_due_ns = 0
+
+    # -- start ------------------------------------------------------------------------------------
+    async def _start(self) -> None:
+        from hil.bench import Mode
+        from hil.run import run_flight_async
+
+        self._task = asyncio.get_running_loop().create_task(run_flight_async(
+            self.rig, self.scenario, mode=Mode(self.mode), seed=self.seed, duration_s=self.duration_s,
+            out_dir=self.log_path.parent, log_path=self.log_path, on_ready=self._on_ready,
+            scenario_source=self.source), name=f"hil-bench {self.log_path.stem}")
+        await self._watch("time", None, 0, "the first tick")
+        if self._setup_error is not None:
+            await self.stop()
+            raise self._setup_error
+
+    def _on_ready(self, loop: TickLoop, devices: DeviceSet, runner: ScenarioRunner) -> None:
+        from hil.faults import FaultSchedule
+
+        self.loop, self.devices, self.runner = loop, devices, runner
+        self._last_k = loop.duration_ns // loop.tick_ns
+        self._before, self._after = loop.before_tick, loop.after_tick
+        loop.before_tick, loop.after_tick = self._before_tick, self._after_tick
+        devices.event_sinks.append(self._on_event)
+        devices.ports["telemetry"].taps.append(self._on_telemetry_wire)
+        # Once hil/run.py plays the scenario's [[faults]] itself, its schedule is reused.
+        existing = [v for v in vars(runner).values() if isinstance(v, FaultSchedule)]
+        try:
+            if existing:
+                self.schedule = existing[0]
+            else:
+                self.schedule = FaultSchedule(self._faults, devices, log_event=runner.log_event, flight=runner.flight)
+                self._own_schedule = True
+        except Exception as exc:  # must not escape into run_flight_async's set-up
+            self._setup_error = exc
+            self.schedule = FaultSchedule([], devices, log_event=runner.log_event, flight=runner.flight)
+            self._own_schedule = True
+
+    # -- hooks on the tick path (never raise: errors go to the waiting test) ----------------------------
+    def _before_tick(self, k: int, t_ns: int) -> None:
+        if self._before is not None:
+            self._before(k, t_ns)
+        if self._own_schedule and self.schedule is not None:
+            self.schedule.before_tick(t_ns)
+        requests, self._requests = self._requests, []
+        for action, fut in requests:
+            if fut.done():
+                continue
+            try:
+                fut.set_result(action(t_ns))
+            except Exception as exc:
+                fut.set_exception(exc)
+
+    def _after_tick(self, k: int, t_ns: int) -> None:
+        if self._after is not None:
+            self._after(k, t_ns)
+        if k == 0:
+            self._start_stall_watch()
+        if k == self._last_k and self._own_schedule and self.schedule is not None:
+            self.schedule.finish(t_ns)
+        if self._watches:
+            self._judge(t_ns)
+
+    def _judge(self, t_ns: int) -> None:
+        keep: list[_Watch] = []
+        for w in self._watches:
+            if w.future.done():
+                continue
+            try:
+                ok = True if w.predicate is None else bool(w.predicate(self))
+            except Exception as exc:
+                w.future.set_exception(exc)
+                continue
+            due = t_ns >= w.deadline_ns
+            if w.kind == "until" and ok:
+                w.future.set_result(t_ns / S)
+                self.log_event("until held", {"predicate": w.label, "t_s": t_ns / S})
+            elif w.kind == "always" and not ok:
+                w.future.set_exception(PredicateFailed(
+                    f"always({w.label}) was false at t = {t_ns / S:.4f} s (checked since {w.t0_ns / S:.4f} s); "
+                    f"{self._state_text()}"))
+            elif due and w.kind == "until":
+                w.future.set_exception(SimTimeout(
+                    f"until({w.label}) did not hold within {(w.deadline_ns - w.t0_ns) / S:g} s of sim time "
+                    f"(t = {w.t0_ns / S:.4f} .. {t_ns / S:.4f} s); {self._state_text()}"))
+            elif due:
+                w.future.set_result(t_ns / S)
+            else:
+                keep.append(w)
+        self._watches = keep
+
+    def _on_event(self, port: str, ev: DeviceEvent) -> None:
+        name = type(ev).__name__
+        self._events[name] = ev
+        if name == "SampleSent":
+            self._imu = ev
+        elif name == "TargetsSet":
+            first = ev.first_channel  # type: ignore[attr-defined]
+            for i, q in enumerate(ev.targets_qus):  # type: ignore[attr-defined]
+                if 0 <= first + i < 4:
+                    self._esc_us[first + i] = q / 4.0  # quarter-microseconds
+            self._esc = EscCommand(ev.t_ns / S, (self._esc_us[0], self._esc_us[1], self._esc_us[2], self._esc_us[3]))
+
+    def _on_telemetry_wire(self, rec: WireRecord) -> None:
+        if rec.direction.value == "rx":  # written by the flight code to its XBee
+            for frame in self._decoder.feed(rec.data):
+                self._telemetry = frame | {"rx_t_s": rec.t_ns / S}
+
+    def _start_stall_watch(self) -> None:
+        from hil import clock
+
+        self._stall_due_ns = clock.monotonic_ns() + int(_STALL_PERIOD_S * S)
+        self._stall_handle = asyncio.get_running_loop().call_later(_STALL_PERIOD_S, self._stall_tick)
+
+    def _stall_tick(self) -> None:
+        from hil import clock
+
+        now = clock.monotonic_ns()
+        late_s = (now - self._stall_due_ns) / S
+        if late_s > STALL_WARN_S and self.running:
+            self.stalls.append((self.t_s, late_s))
+        if self.running:
+            self._stall_due_ns = now + int(_STALL_PERIOD_S * S)
+            self._stall_handle = asyncio.get_running_loop().call_later(_STALL_PERIOD_S, self._stall_tick)
+
+    # -- waiting ------------------------------------------------------------------------------------
+    async def _watch(self, kind: str, predicate: Predicate | None, span_ns: int, label: str) -> float:
+        fut: asyncio.Future[float] = asyncio.get_running_loop().create_future()
+        t0 = self.loop.t_ns if self.loop is not None else 0
+        self._watches.append(_Watch(kind, predicate, max(t0, 0) + span_ns, fut, label, t0))
+        return await self._outcome(fut, label)
+
+    async def _outcome(self, fut: asyncio.Future[Any], label: str) -> Any:
+        task = self._require_task()
+        await asyncio.wait({fut, task}, return_when=asyncio.FIRST_COMPLETED)
+        if fut.done():
+            return fut.result()
+        fut.cancel()
+        if task.exception() is not None:
+            raise task.exception()  # type: ignore[misc]
+        r = task.result()
+        tail = "\n".join("  " + s for s in r.flight_stderr_tail[-8:])
+        raise RunEnded(f"the run ended ({r.end_reason.value}{': ' + r.message if r.message else ''}) "
+                       f"at t = {r.sim_s:.4f} s, before {label}; MCAP {r.log_path}\nflight stderr:\n{tail}")
+
+    async def until(self, predicate: Predicate, timeout_s: float) -> float:
+        """Wait for the first tick (from the next one) at which ``predicate(bench)`` is true;
+        return its sim time (s). ``timeout_s`` is sim time: :class:`SimTimeout` after it,
+        :class:`RunEnded` if the run ends first."""
+        return await self._watch("until", predicate, int(round(timeout_s * S)), _label_of(predicate))
+
+    async def always(self, predicate: Predicate, for_s: float) -> float:
+        """Check ``predicate(bench)`` at every tick for ``for_s`` of sim time; return the sim
+        time (s) at the end, or raise :class:`PredicateFailed` at the first false tick."""
+        return await self._watch("always", predicate, int(round(for_s * S)), _label_of(predicate))
+
+    async def run_for(self, seconds: float) -> float:
+        """Let ``seconds`` of sim time pass; return the sim time (s) of the tick reached."""
+        return await self._watch("time", None, int(round(seconds * S)), f"{seconds:g} s of sim time")
+
+    async def _at_next_tick(self, action: Callable[[int], Any], label: str) -> Any:
+        fut: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
+        self._requests.append((action, fut))
+        return await self._outcome(fut, label)
+
+    @contextlib.asynccontextmanager
+    async def fault(self, kind: str, duration_s: float | None = None, **params: Any) -> AsyncIterator[InjectedFault]:
+        """Apply catalogue fault ``kind`` (``hil faults``) at the next tick for the body of the
+        block; it ends at the first tick after the block (or after ``duration_s`` of sim time,
+        if that comes first). Invalid kinds or parameters raise ``hil.config.ConfigError``."""
+        schedule = self.schedule
+
+        def start(t_ns: int) -> InjectedFault:
+            assert schedule is not None
+            return InjectedFault(kind, schedule.start_now(kind, t_ns, duration_s=duration_s, **params), t_ns / S)
+
+        injected: InjectedFault = await self._at_next_tick(start, f"the start of fault {kind}")
+        try:
+            yield injected
+        finally:
+            def stop(t_ns: int) -> None:
+                assert schedule is not None
+                if any(a.handle == injected.handle for a in schedule.active()):
+                    schedule.stop(injected.handle, t_ns)
+                    injected.t_end_s = t_ns / S
+
+            if self.running:
+                with contextlib.suppress(RunEnded):
+                    await self._at_next_tick(stop, f"the end of fault {kind}")
+            if injected.t_end_s is None and duration_s is not None:
+                injected.t_end_s = injected.t_start_s + duration_s
+
+    # -- live values ---------------------------------------------------------------------------------
+    @property
+    def t_s(self) -> float:
+        """Sim time of the current tick, s (negative during boot)."""
+        return (self.loop.t_ns if self.loop is not None else 0) / S
+
+    @property
+    def truth(self) -> Truth:
+        """Plant truth now (see :class:`Truth`)."""
+        assert self.devices is not None, "the bench has not started"
+        st = self.devices.plant.state
+        r, p, y = st.euler_rpy_rad
+        w = st.omega_B_radps
+        return Truth(self.t_s, st.h_m, -st.v_N_mps[2], r * RAD2DEG, p * RAD2DEG, y * RAD2DEG, tuple(st.p_N_m),
+                     tuple(st.v_N_mps), (w[0] * RAD2DEG, w[1] * RAD2DEG, w[2] * RAD2DEG),
+                     tuple(st.rotor_omega_radps), bool(st.on_ground), st.battery_V, st)
+
+    @property
+    def imu_sample(self) -> DeviceEvent | None:
+        """The last XSENS sample sent (emulators.xsens.events.SampleSent: euler_deg, rate_radps,
+        acc_mps2 as on the wire), or None before the first."""
+        return self._imu
+
+    @property
+    def esc_command(self) -> EscCommand | None:
+        """The flight code's last ESC command (see :class:`EscCommand`), or None before the first."""
+        return self._esc
+
+    @property
+    def esc_throttle(self) -> tuple[float, ...]:
+        """The four ESC models' throttle outputs, 0..1."""
+        assert self.devices is not None, "the bench has not started"
+        return tuple(self.devices.throttle)
+
+    @property
+    def esc_armed(self) -> tuple[bool, ...]:
+        assert self.devices is not None, "the bench has not started"
+        return tuple(e.armed for e in self.devices.escs)
+
+    @property
+    def telemetry(self) -> dict[str, Any] | None:
+        """The last telemetry frame the flight code sent, decoded (hil.telemetry keys, plus
+        ``rx_t_s``: sim time it reached the bench), or None before the first."""
+        return self._telemetry
+
+    @property
+    def flight_mode(self) -> str | None:
+        """The flight code's mode from its last telemetry frame ("DISARMED", "FLYING", ...)."""
+        return None if self._telemetry is None else str(self._telemetry["mode_name"])
+
+    @property
+    def counters(self) -> dict[str, dict[str, int]]:
+        """Device counters by port, and ``port.<name>`` byte/open/overflow counters."""
+        assert self.devices is not None, "the bench has not started"
+        out = {name: {k: int(v) for k, v in d.counters.items()} for name, d in self.devices.by_port.items()}
+        for name, port in self.devices.ports.items():
+            out[f"port.{name}"] = {k: v for k, v in vars(port.stats).items() if isinstance(v, int)}
+        return out
+
+    def last_event(self, name: str) -> DeviceEvent | None:
+        """The last device event of this type name ("EscDisarmed", "SampleSent", ...)."""
+        return self._events.get(name)
+
+    @property
+    def flight(self) -> Any:
+        """The flight code's hil.flightproc.FlightProcess (pid, last_stderr, returncode)."""
+        return None if self.runner is None else self.runner.flight
+
+    def log_event(self, name: str, detail: Mapping[str, Any] | None = None) -> None:
+        """Record an event (kind "pytest") on the run's /hil/events topic."""
+        if self.runner is not None and self.running:
+            self.runner.log_event(max(self.loop.t_ns if self.loop else 0, 0), "pytest", name, dict(detail or {}))
+
+    # -- the end -------------------------------------------------------------------------------------
+    @property
+    def running(self) -> bool:
+        return self._task is not None and not self._task.done()
+
+    async def finish(self) -> RunResult:
+        """Wait for the run's own end (its duration, or the flight code's exit); the result."""
+        await asyncio.wait({self._require_task()})
+        return await self._closed()
+
+    async def stop(self) -> RunResult:
+        """End the run now (EndReason.INTERRUPTED, a "pytest"/"stop" event before it); the result."""
+        task = self._require_task()
+        if not task.done():
+            self.stopped_by_test = True
+            self.log_event("stop", {"t_s": self.t_s})
+            if self._own_schedule and self.schedule is not None and self.loop is not None:
+                self.schedule.finish(max(self.loop.t_ns, 0))
+            task.cancel()
+        await asyncio.wait({task})
+        return await self._closed()
+
+    async def _closed(self) -> RunResult:
+        if self._stall_handle is not None:
+            self._stall_handle.cancel()
+        if self._own_schedule and self.schedule is not None:
+            await self.schedule.aclose()
+        for w in self._watches:
+            w.future.cancel()
+        return self.result
+
+    @property
+    def result(self) -> RunResult:
+        """The run's hil.run.RunResult (after :meth:`stop` / :meth:`finish`)."""
+        task = self._require_task()
+        if not task.done():
+            raise RuntimeError("the run is still going: await bench.stop() or bench.finish() first")
+        return task.result()
+
+    def record(self, topic: str) -> dict[str, Any]:
+        """A recorded topic as columns (hil.record.read_topic: ``log_time_ns`` + one numpy
+        array per field), after the run."""
+        from hil.record import read_topic
+
+        return read_topic(self._log(), topic)
+
+    def timing(self, budget_us: float = 2500.0) -> TimingReport:
+        """The loop timing report of the run (hil.timing.analyze_log), after the run."""
+        from hil.timing import analyze_log
+
+        return analyze_log(self._log(), budget_us)
+
+    def signal(self, name: str) -> tuple[Any, Any]:
+        """``(t_s, values)`` of a trace signal ("truth.h_m", "esc.cmd_us[2]", "tm.alt_est_m"), after the run."""
+        trace: Trace | None = self.result.trace
+        assert trace is not None
+        return trace.signal(name)
+
+    def _log(self) -> Path:
+        path = self.result.log_path
+        if path is None:
+            raise RuntimeError("this run has no MCAP log")
+        return path
+
+    def _require_task(self) -> asyncio.Task[RunResult]:
+        if self._task is None:
+            raise RuntimeError("the bench has not been started")
+        return self._task
+
+    def _state_text(self) -> str:
+        tr = self.truth
+        esc = self._esc.pulse_us if self._esc else None
+        return (f"now h = {tr.h_m:.3f} m, roll {tr.roll_deg:.2f} deg, pitch {tr.pitch_deg:.2f} deg, "
+                f"on_ground {tr.on_ground}, mode {self.flight_mode}, esc {esc}")
+
+    def describe(self) -> str:
+        """One paragraph for failure reports."""
+        where = f"t = {self.t_s:.4f} s sim"
+        if self._task is not None and self._task.done() and not self._task.cancelled() and not self._task.exception():
+            r = self._task.result()
+            where += f", ended: {r.end_reason.value} {r.message}"
+        elif self.devices is not None:
+            where += f", running; {self._state_text()}"
+        lines = [f"rig {self.rig.name}, scenario {self.scenario.name}, seed {self.seed}: {where}"]
+        lines += [f"event-loop stall of {s * 1e3:.0f} ms at t = {t:.3f} s" for t, s in self.stalls[:5]]
+        if self.flight is not None and self.flight.last_stderr:
+            lines += ["flight code stderr (last lines):", *("  " + s for s in list(self.flight.last_stderr)[-8:])]
+        return "\n".join(lines)
+
+
+def build_scenario(rig: Rig, scenario: str | Path | Mapping[str, Any] | Scenario | None, *,
+                   sticks: Sequence[Mapping[str, Any]] | None = None, flight: Mapping[str, Any] | None = None,
+                   duration_s: float | None = None, name: str = "pytest") -> tuple[Scenario, Path | None]:
+    """The run's scenario and its file: a name or path (rigs/scenarios/), a dict shaped like a
+    scenario TOML (``[scenario]`` header optional), a Scenario, or None (empty). ``sticks``
+    replace the scenario's [[sticks]]; ``flight`` is deep-merged into its [flight] overrides."""
+    from hil.config import ConfigError, validate
+    from hil.run import deep_merge
+    from hil.scenario import Scenario, load_scenario
+
+    source: Path | None = None
+    if isinstance(scenario, Scenario):
+        scen = scenario
+    elif isinstance(scenario, (str, Path)):
+        source = rig.scenario_path(scenario)
+        scen = load_scenario(source)
+    else:
+        data = dict(scenario or {})
+        header = {"name": name, "duration_s": duration_s or INLINE_DURATION_S} | dict(data.get("scenario", {}))
+        scen = validate(Scenario, data | {"scenario": header}, file=f"<inline scenario of {name}>", section="")
+    if sticks is not None or flight is not None:
+        update: dict[str, Any] = {}
+        if sticks is not None:
+            update["sticks"] = list(sticks)
+        if flight is not None:
+            update["flight"] = deep_merge(scen.flight, dict(flight))
+        data = scen.model_dump(exclude_none=True) | update
+        scen = validate(Scenario, data, file=f"<scenario {scen.name} of {name}>", section="")
+    times = [s.t_s for s in scen.sticks]
+    if times != sorted(times):
+        raise ConfigError(f"<scenario {scen.name} of {name}>: [[sticks]] times must not decrease ({times})")
+    return scen, source
+
+
+def _safe(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.=-]+", "_", text.replace("::", "--").replace("/", "-")).strip("_-")[:150]
+
+
+class HilBench:
+    """The ``hil_bench`` fixture: starts benches for one test, stops them at teardown."""
+
+    def __init__(self, nodeid: str, name: str, *, keep_dir: Path, keep_all: bool = False) -> None:
+        self.nodeid, self.name = nodeid, name
+        self.keep_dir, self.keep_all = keep_dir, keep_all
+        self.benches: list[Bench] = []
+        self.kept: list[Path] = []
+        self._tmp: Path | None = None
+
+    async def start(self, rig: str | Path | Rig | None = None,
+                    scenario: str | Path | Mapping[str, Any] | Scenario | None = None, *,
+                    sticks: Sequence[Mapping[str, Any]] | None = None, flight: Mapping[str, Any] | None = None,
+                    seed: int | None = None, duration_s: float | None = None, mode: str = "lockstep") -> Bench:
+        """Start a run and return once its first tick (sim time 0) is done.
+
+        ``rig``: name under rigs/ or path (None: the default rig); ``scenario``: see
+        :func:`build_scenario` (None with ``sticks``: an inline scenario of
+        ``duration_s`` or INLINE_DURATION_S); ``seed``: None = the scenario's; ``duration_s``:
+        the run's sim length (None = the scenario's); ``mode``: "lockstep" or "realtime".
+        """
+        from hil.faults import load_faults
+        from hil.rig import Rig, load_rig
+
+        rig_obj = rig if isinstance(rig, Rig) else load_rig(rig)
+        scen, source = build_scenario(rig_obj, scenario, sticks=sticks, flight=flight, duration_s=duration_s,
+                                      name=_safe(self.name))
+        run_s = scen.scenario.duration_s if duration_s is None else duration_s
+        faults = load_faults(scen.faults, rig_obj, source=str(source or f"<scenario {scen.name}>"), run_duration_s=run_s)
+        if self._tmp is None:
+            self._tmp = Path(tempfile.mkdtemp(prefix="hil-pytest-"))
+        bench = Bench(rig_obj, scen, source=source, seed=seed, duration_s=duration_s, mode=mode,
+                      log_path=self._tmp / f"{self._stem(len(self.benches))}.mcap", faults=faults)
+        self.benches.append(bench)
+        bench.log_path.parent.mkdir(parents=True, exist_ok=True)
+        await bench._start()
+        bench.log_event("test", {"nodeid": self.nodeid})
+        return bench
+
+    def _stem(self, i: int) -> str:
+        return _safe(self.nodeid) + (f"-{i + 1}" if i else "")
+
+    def keep_path(self, bench: Bench) -> Path:
+        """Where the bench's MCAP goes if the test fails (or with --hil-keep-all)."""
+        return self.keep_dir / f"{self._stem(self.benches.index(bench))}.mcap"
+
+    def describe(self) -> str:
+        lines: list[str] = []
+        for b in self.benches:
+            lines += [f"MCAP: {self.keep_path(b)}  (kept; finalized at teardown; `hil report` plots it)", b.describe()]
+        return "\n".join(lines)
+
+    async def aclose(self, failure: str | None) -> None:
+        """Stop every bench (flight code stopped, MCAP finalized); keep the logs of a failed
+        test (``failure`` = its report text) or all logs with keep_all; remove the rest."""
+        errors: list[BaseException] = []
+        for b in self.benches:
+            try:
+                if failure is not None:
+                    b.log_event("test failed", {"nodeid": self.nodeid, "report": failure[-4000:]})
+                result = await b.stop()
+                if b.stalls:
+                    worst = max(s for _, s in b.stalls)
+                    warnings.warn(HilBenchStallWarning(
+                        f"{self.nodeid}: the event loop stalled {len(b.stalls)} time(s) (worst {worst * 1e3:.0f} ms) "
+                        "while the bench ran; the flight code's IMU watchdog may have fired. Keep slow work out of "
+                        "the test body until after bench.stop()."), stacklevel=1)
+                if result.log_path is not None and result.log_path.exists() and (failure is not None or self.keep_all):
+                    dest = self.keep_path(b)
+                    dest.parent.mkdir(parents=True, exist_ok=True)
+                    shutil.move(result.log_path, dest)
+                    self.kept.append(dest)
+            except BaseException as exc:  # stop the others first
+                errors.append(exc)
+        if self._tmp is not None:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+        if errors:
+            raise errors[0]
+
+
+# -- pytest hooks and the fixture ----------------------------------------------------------------------
+_FACTORY = pytest.StashKey[HilBench]()
+_REPORTS = pytest.StashKey[dict[str, pytest.TestReport]]()
+_KEPT = pytest.StashKey[list[tuple[str, Path]]]()
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup("hil-bench", "HIL bench (hil.pytest_plugin)")
+    group.addoption("--hil-keep-logs", metavar="DIR", default=None,
+                    help="keep the MCAP logs of failing hil_bench tests in DIR (default: <basetemp>/hil-logs)")
+    group.addoption("--hil-keep-all", action="store_true", default=False,
+                    help="keep the MCAP logs of passing hil_bench tests too")
+    parser.addini("hil_keep_logs", "default for --hil-keep-logs", default="")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", "hil_bench: the test starts a HIL bench (added to users of the hil_bench fixture)")
+    config.stash[_KEPT] = []
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        if "hil_bench" in getattr(item, "fixturenames", ()):
+            item.add_marker("hil_bench")
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo[None]) -> Any:
+    report: pytest.TestReport = yield
+    item.stash.setdefault(_REPORTS, {})[report.when] = report
+    factory = item.stash.get(_FACTORY, None)
+    if factory is not None and factory.benches and report.failed:
+        report.sections.append(("hil-bench", factory.describe()))
+    return report
+
+
+def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> None:
+    kept = config.stash.get(_KEPT, [])
+    if kept:
+        terminalreporter.write_sep("-", "hil-bench: MCAP logs kept")
+        for nodeid, path in kept:
+            terminalreporter.write_line(f"{nodeid}: {path}")
+
+
+def keep_dir_of(config: pytest.Config, basetemp: Path) -> Path:
+    """--hil-keep-logs, else the ``hil_keep_logs`` ini value, else ``<basetemp>/hil-logs``."""
+    value = config.getoption("hil_keep_logs") or config.getini("hil_keep_logs")
+    return Path(config.invocation_params.dir, value) if value else basetemp / "hil-logs"
+
+
+async def _hil_bench(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> AsyncIterator[HilBench]:
+    item = request.node
+    keep = keep_dir_of(request.config, tmp_path_factory.getbasetemp())
+    factory = HilBench(item.nodeid, item.name, keep_dir=keep, keep_all=bool(request.config.getoption("hil_keep_all")))
+    item.stash[_FACTORY] = factory
+    yield factory
+    failed = [r for r in item.stash.get(_REPORTS, {}).values() if r.failed]
+    await factory.aclose(failed[0].longreprtext if failed else None)
+    request.config.stash[_KEPT].extend((item.nodeid, p) for p in factory.kept)
+
+
+try:
+    import pytest_asyncio
+except ImportError:  # pragma: no cover - the test extra brings it
+    @pytest.fixture
+    def hil_bench() -> None:
+        pytest.fail("the hil_bench fixture needs pytest-asyncio (pip install 'mav-hil-bench[test]')")
+else:
+    hil_bench = pytest_asyncio.fixture(_hil_bench, name="hil_bench")
