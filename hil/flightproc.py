@@ -112,8 +112,10 @@ class FlightProcess:
 
         A restart is not an exit: the ``exited`` event the bench waits on is not set for the
         killed process (its watcher reports to a private event meanwhile). ``resume``: wait
-        for it between the kill and the new start (the fault's downtime). Cancelled before
-        the new start, the flight code stays dead and ``exited`` is set.
+        for it between the kill and the new start (the fault's downtime); meanwhile
+        ``self.exited`` is that private event (set once the old process is reaped), so
+        ``stop()`` returns at once. Cancelled before the new start, or if the start fails,
+        the flight code stays dead and ``exited`` is set.
         """
         real = self.exited
         gone = asyncio.Event()
@@ -133,7 +135,11 @@ class FlightProcess:
             raise
         self.exited = real
         real.clear()
-        await self.start(extra_env)
+        try:
+            await self.start(extra_env)
+        except BaseException:
+            real.set()  # it could not be started again: that is an exit
+            raise
 
     async def stop(self, timeout_s: float = 3.0) -> int | None:
         """SIGTERM, then SIGKILL after ``timeout_s``; returns the exit status."""

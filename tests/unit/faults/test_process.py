@@ -79,6 +79,20 @@ async def test_stop_during_the_downtime_does_not_hang(rig: Rig, flight: FlightPr
     await b.schedule.aclose()
 
 
+async def test_a_restart_that_cannot_start_is_an_exit_and_is_logged(
+    rig: Rig, flight: FlightProcess, tmp_path: Path
+) -> None:
+    b = Bench(rig, load_faults([{"kind": "process.restart", "t_s": 0.0, "duration_s": 0.005}], rig, source="t"),
+              flight=flight)
+    exited = flight.exited
+    flight.argv = [str(tmp_path / "no-such-flight-code")]
+    await b.tick(3)
+    await asyncio.wait_for(exited.wait(), 5.0)
+    await asyncio.gather(*b.schedule.tasks, return_exceptions=True)
+    (_, name, detail), = b.fault_events(" error")
+    assert name == "process.restart error" and "FileNotFoundError" in detail["error"]
+
+
 async def test_process_faults_need_a_flight_process(rig: Rig) -> None:
     faults = load_faults([{"kind": "process.kill", "t_s": 1.0}], rig, source="s.toml")
     with pytest.raises(ConfigError, match=r"s.toml: \[\[faults\]\] #0 \(process.kill\) kind: needs the flight code"):
