@@ -4,15 +4,18 @@ They use the emulators' fault hooks: ``MtiDevice.set_silenced / power_cycle /
 jump_packet_counter``; ``PpmGenerator.inject_glitch / set_channel_count / set_stuck`` (and
 the stick script's ``signal_present`` for loss, see env.RcLossGate); ``Esc.set_refuse_arm
 / set_desync / set_stuck``; ``RadioLink.set_loss_probability``. RC faults act on the PPM
-train, upstream of the front-end, so they apply to capture and SBUS rigs alike.
+train, upstream of the front-end, so they apply to capture and SBUS rigs alike, except
+``rc.sbus_flags``, which sets flag bits in the SBUS frames on the wire (SBUS rigs only).
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from typing import Any, TypeVar
 
 from pydantic import Field
 
+from emulators.rc.sbus import SbusFlag
 from emulators.rc.script import CENTRE_US
 from hil.faults.base import (
     NS_PER_S,
@@ -23,6 +26,8 @@ from hil.faults.base import (
     Refused,
     Timing,
 )
+from hil.faults.framing import Direction, Protocol, split
+from hil.faults.wire import WireFault
 
 ESC_HELP = "ESC index 0..3 (Maestro channel i, drives rotor i)"
 
@@ -239,6 +244,56 @@ class RcChannelStuck(Fault[ChannelStuckParams]):
         return {"channel": self.params.channel, "pulse_us": None}
 
 
+SBUS_FLAGS_INDEX = 23  # 0F, 22 channel bytes, flags, end (emulators/rc/sbus.py)
+
+
+class SbusFlagParams(FaultParams):
+    failsafe: bool = Field(default=True, description="set the failsafe bit (flags bit 3)")
+    frame_lost: bool = Field(default=True, description="set the frame-lost bit (flags bit 2)")
+
+
+class SbusFlags(WireFault[Any]):
+    """The SBUS receiver reports failsafe / frame lost while the channels keep coming (a
+    converter or receiver bug): the flags byte of every SBUS frame gets these bits. Only on
+    rigs whose RC front-end is SBUS."""
+
+    kind = "rc.sbus_flags"
+    layer = Layer.DEVICE
+    Params = SbusFlagParams
+
+    @classmethod
+    def check(cls, params: Any, rig: Any) -> None:
+        if rig.rc.frontend != "sbus":
+            raise Refused("kind", f"this rig's RC front-end is {rig.rc.frontend!r}, not SBUS")
+        if not (params.failsafe or params.frame_lost):
+            raise Refused("failsafe", "neither bit set: the fault would change nothing")
+
+    @classmethod
+    def target_of(cls, params: Any) -> str:
+        return "rc SBUS flags"
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        self.active = True
+        self.counters = Counter()
+        self.protocols = {Direction.TX: Protocol.SBUS}
+        self.bits = (int(SbusFlag.FAILSAFE) if self.params.failsafe else 0) | (int(SbusFlag.FRAME_LOST) if self.params.frame_lost else 0)
+        self.env.add_filter("rc", self)
+        return {"flags_or": self.bits}
+
+    def revert(self, t_ns: int) -> dict[str, Any]:
+        self.active = False
+        return {"frames": self.counters["frames_hit"]}
+
+    def process(self, data: bytes, t_ns: int, d: Direction) -> bytes:
+        out = bytearray()
+        for seg, is_frame in split(Protocol.SBUS, data):
+            if is_frame:
+                self.counters["frames_hit"] += 1
+                seg = seg[:SBUS_FLAGS_INDEX] + bytes((seg[SBUS_FLAGS_INDEX] | self.bits,)) + seg[SBUS_FLAGS_INDEX + 1 :]
+            out += seg
+        return bytes(out)
+
+
 # -- ESC ------------------------------------------------------------------------------------------
 class EscParams(FaultParams):
     esc: int = Field(ge=0, le=3, description=ESC_HELP)
@@ -362,7 +417,7 @@ class TelemetryLoss(_LinkLoss[LossParams]):
 
 FAULTS: tuple[type[Fault[Any]], ...] = (
     ImuSilence, ImuReset, ImuCounterJump,
-    RcSignalLoss, RcGlitch, RcChannelCount, RcChannelStuck,
+    RcSignalLoss, RcGlitch, RcChannelCount, RcChannelStuck, SbusFlags,
     EscRefuseArm, EscDesync, EscStuck,
     TelemetryDropout, TelemetryLoss,
 )

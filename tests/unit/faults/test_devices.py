@@ -3,10 +3,12 @@ plant would see them, and that each ends when it should."""
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
 
+from emulators.rc.sbus import unpack_sbus
 from emulators.rc.script import Setpoint, StickScript
 from emulators.xbee.frames import ApiParser, tx16
 from emulators.xbee.frames import encode_frame as xbee_frame
@@ -100,6 +102,24 @@ async def test_rc_channel_stuck_at_its_value_while_the_stick_moves(rig: Rig) -> 
     assert all(abs(v - 1500) <= 3 for v in ch1[:13]) and all(abs(v - 1800) <= 3 for v in ch1[-6:])
     start = b.fault_events(" start")[0][2]["changed"]
     assert start == {"channel": 1, "pulse_us": 1500}
+
+
+def sbus_frames(b: Bench) -> list[tuple[int, bytes]]:
+    return [(t, d[i : i + 25]) for t, d in b.chunks("rc", 0.1, 0.4) for i in range(0, len(d), 25)]
+
+
+async def test_sbus_flags_raise_failsafe_while_the_channels_keep_coming(rig: Rig) -> None:
+    sbus = dataclasses.replace(rig, rc=dataclasses.replace(rig.rc, frontend="sbus"))
+    b, clean = bench(sbus, [{"kind": "rc.sbus_flags", "t_s": 0.2, "duration_s": 0.1}]), Bench(sbus)
+    for x in (b, clean):
+        await x.run_to(0.4)
+    pairs = list(zip(sbus_frames(b), sbus_frames(clean), strict=True))
+    assert len(pairs) > 20
+    for (t, got), (_, want) in pairs:
+        g, w = unpack_sbus(got), unpack_sbus(want)
+        assert g is not None and w is not None and g.channels_raw == w.channels_raw
+        assert not w.failsafe and not w.frame_lost
+        assert g.failsafe == g.frame_lost == (0.2e9 <= t < 0.3e9), t
 
 
 # -- ESC ----------------------------------------------------------------------------------------------

@@ -68,6 +68,7 @@ VALID: dict[str, dict[str, Any]] = {
     "rc.glitch": {"channel": 3},
     "rc.channel_count": {"n_channels": 6},
     "rc.channel_stuck": {"channel": 1, "pulse_us": 1700},
+    "rc.sbus_flags": {"frame_lost": False},  # SBUS rigs only
     "esc.refuse_arm": {"esc": 1},
     "esc.desync": {"esc": 2, "rate_hz": 5.0},
     "esc.stuck": {"esc": 3, "throttle": 0.4},
@@ -88,11 +89,18 @@ def refusal(rig: Rig, raw: dict[str, Any], **kw: Any) -> str:
     return str(info.value)
 
 
+def sbus_rig(rig: Rig) -> Rig:
+    return dataclasses.replace(rig, rc=dataclasses.replace(rig.rc, frontend="sbus"))
+
+
 def test_every_kind_has_a_valid_example_that_loads(rig: Rig) -> None:
     assert set(VALID) == set(CATALOGUE)
-    faults = load_faults([entry(k, t_s=0.5 + i) for i, k in enumerate(VALID)], rig, source=SRC)
-    assert [f.kind for f in faults] == list(VALID)
-    assert [f.index for f in faults] == list(range(len(VALID)))
+    capture = [k for k in VALID if k != "rc.sbus_flags"]
+    faults = load_faults([entry(k, t_s=0.5 + i) for i, k in enumerate(capture)], rig, source=SRC)
+    assert [f.kind for f in faults] == capture
+    assert [f.index for f in faults] == list(range(len(capture)))
+    (sbus,) = load_faults([entry("rc.sbus_flags")], sbus_rig(rig), source=SRC)
+    assert sbus.target == "rc SBUS flags" and sbus.params.failsafe and not sbus.params.frame_lost
     wind = faults[0]
     assert (wind.t_s, wind.duration_s, wind.t_ns, wind.end_ns) == (0.5, 2.0, 500_000_000, 2_500_000_000)
     assert wind.params.wind_N_mps == (3.0, 0.0, 0.0) and wind.source == SRC
@@ -149,6 +157,7 @@ def test_scenario_faults_table_loads_through_the_scenario_model(rig: Rig) -> Non
         ({"kind": "adc.channel_stuck", "t_s": 1.0, "channel": 0, "stuck_V": 7.0}, "stuck_V", "above the MCP3204's supply"),
         ({"kind": "adc.vref_drift", "t_s": 1.0}, "step_V", "all zero"),
         ({"kind": "esc.desync", "t_s": 1.0, "esc": 4}, "esc", "less than or equal to 3"),
+        ({"kind": "rc.sbus_flags", "t_s": 1.0}, "kind", "this rig's RC front-end is 'capture', not SBUS"),
     ],
 )
 def test_refused_at_load_with_file_index_key_and_reason(rig: Rig, raw: dict[str, Any], key: str, reason: str) -> None:
@@ -160,7 +169,7 @@ def test_refused_at_load_with_file_index_key_and_reason(rig: Rig, raw: dict[str,
 
 
 def test_rig_dependent_refusals(rig: Rig) -> None:
-    sbus = dataclasses.replace(rig, rc=dataclasses.replace(rig.rc, frontend="sbus"))
+    sbus = sbus_rig(rig)
     msg = refusal(sbus, {"kind": "wire.bad_checksum", "t_s": 1.0, "port": "rc"})
     assert "SBUS on 'rc' (tx) has no checksum" in msg
     load_faults([{"kind": "wire.bad_checksum", "t_s": 1.0, "port": "rc"}], rig, source=SRC)  # capture CRC-8: fine
