@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from hil.faults import devices, plant, process, sensors, wire
+from hil.faults import analog, devices, imu, plant, process, wire
 from hil.faults.base import Fault
 
 #: kind name -> class, grouped by layer in listing order.
 CATALOGUE: dict[str, type[Fault[Any]]] = {
-    cls.kind: cls for cls in (*plant.FAULTS, *sensors.FAULTS, *wire.FAULTS, *devices.FAULTS, *process.FAULTS)
+    cls.kind: cls for cls in (*plant.FAULTS, *imu.FAULTS, *analog.FAULTS, *wire.FAULTS, *devices.FAULTS, *process.FAULTS)
 }
 
 
