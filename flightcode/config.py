@@ -76,11 +76,11 @@ class AdcParams:
     vref_V: float = 5.0
     baro_channel: int = 0
     accel_channels: tuple[int, int, int] = (1, 2, 3)
-    read_timeout_s: float = 0.01
+    read_timeout_s: float = 0.02
     entry_attempts: int = 5
     reply_timeout_s: float = 0.2
+    quiet_s: float = 0.03
     resync_interval_s: float = 0.25
-    resync_timeout_s: float = 0.02
     baro: BaroChainParams = field(default_factory=BaroChainParams)
     accel: AccelChainParams = field(default_factory=AccelChainParams)
 
@@ -314,7 +314,7 @@ def _check(file: str, cfg: FlightConfig) -> None:
         "imu.rate_hz": cfg.imu.rate_hz, "imu.reply_timeout_s": cfg.imu.reply_timeout_s,
         "adc.vref_V": cfg.adc.vref_V, "adc.read_timeout_s": cfg.adc.read_timeout_s,
         "adc.reply_timeout_s": cfg.adc.reply_timeout_s, "adc.resync_interval_s": cfg.adc.resync_interval_s,
-        "adc.resync_timeout_s": cfg.adc.resync_timeout_s, "adc.baro.supply_V": cfg.adc.baro.supply_V,
+        "adc.quiet_s": cfg.adc.quiet_s, "adc.baro.supply_V": cfg.adc.baro.supply_V,
         "adc.baro.k_per_kPa": cfg.adc.baro.k_per_kPa, "adc.baro.gain": cfg.adc.baro.gain,
         "adc.baro.zero_average_s": cfg.adc.baro.zero_average_s, "adc.accel.supply_V": cfg.adc.accel.supply_V,
         "adc.accel.sens_ratio_per_g": cfg.adc.accel.sens_ratio_per_g, "rc.half_range_us": cfg.rc.half_range_us,

@@ -66,13 +66,17 @@ class Devices:
     telemetry: XbeeTelemetryLink | None
 
 
-def make_devices(cfg: FlightConfig, ports: dict[str, SerialLike], log: Logger) -> Devices:
-    """Drivers on already-open ports keyed ``imu``, ``adc``, ``rc``, ``esc`` (+ ``telemetry``)."""
+def make_devices(cfg: FlightConfig, ports: dict[str, SerialLike], log: Logger,
+                 clock: Callable[[], float] = time.monotonic) -> Devices:
+    """Drivers on already-open ports keyed ``imu``, ``adc``, ``rc``, ``esc`` (+ ``telemetry``).
+
+    ``clock`` (monotonic seconds) times the ADC bridge's reply waits; tests pass a fake.
+    """
     a = cfg.adc
     bridge = BusPirateSpi(ports["adc"], speed_hz=a.spi_speed_hz, entry_attempts=a.entry_attempts,
-                          reply_timeout_s=a.reply_timeout_s, log=log)
-    adc = Mcp3204Reader(bridge, (a.baro_channel, *a.accel_channels),
-                        resync_interval_ns=int(a.resync_interval_s * 1e9), resync_timeout_s=a.resync_timeout_s)
+                          reply_timeout_s=a.reply_timeout_s, quiet_s=a.quiet_s,
+                          resync_interval_ns=int(a.resync_interval_s * 1e9), log=log, clock=clock)
+    adc = Mcp3204Reader(bridge, (a.baro_channel, *a.accel_channels))
     rc: CaptureRcInput | SbusRcInput
     if cfg.rc.frontend == "capture":
         rc = CaptureRcInput(ports["rc"], cfg.rc.capture)

@@ -9,13 +9,21 @@ Protocol (research/protocols.md 7.1; DP wiki "SPI (binary)", pyBusPirateLite, fl
   ``6x`` speed, ``8x`` config (``8A``: 3.3 V push-pull outputs, clock idle low, CKE = 1,
   sample in the middle = SPI mode 0).
 
-Pipelining: every command's reply has a fixed length, so a whole tick's transactions go out
-in one write and come back in one read: ``02 12 a b c 03`` per 3-byte transfer answers
-``01 01 x y z 01``.
+Entry (:class:`EntrySequence`, sans-I/O; as flashrom's ``buspirate_spi_init``): send the 20
+zeros, then discard everything until the line has been quiet for ``quiet_s`` (a bridge left in
+SPI mode answers ``BBIO1`` to each zero, and replies to earlier commands may still be on their
+way), flush, and then one command at a time, each answered by exactly its reply: ``00`` ->
+``BBIO1``, ``01`` -> ``SPI1``, ``8A``, ``6x``, ``49``, ``03`` -> ``01`` each. A byte more, a
+byte less or a different byte fails the attempt; nothing stale can pass for a reply.
 
-Entry never waits for silence: the stream after the 20 zeros is ``[terminal junk] BBIO1*k``
-and the ``01`` sent next is answered after all of them, so reading until the buffer ends in
-``SPI1`` is both the drain and the check.
+Transfers: every command's reply has a fixed length, so a whole sample's conversions go out
+in one write and come back in one read of exactly that length: ``02 12 a b c 03`` per 3-byte
+transfer answers ``01 01 x y z 01``. The driver counts the bytes it is still owed: a reply
+that misses the read timeout is *late*, not lost; its remaining bytes are collected (and their
+ack pattern checked) before the next write, so a late reply costs one sample's data and is
+never read as the next sample's. Only a reply of the wrong shape, or one that does not arrive
+within ``reply_timeout_s``, starts a re-entry, which in flight runs one non-blocking step per
+sample (:meth:`BusPirateSpi.transfer_encoded`) instead of stalling the loop.
 """
 
 from __future__ import annotations
@@ -23,7 +31,7 @@ from __future__ import annotations
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
-from enum import IntEnum, unique
+from enum import Enum, IntEnum, unique
 
 from flightcode.drivers.base import DeviceError, SerialLike
 from flightcode.log import Logger
@@ -63,6 +71,12 @@ def setup_commands(speed_hz: int) -> bytes:
     return bytes((CONFIG_MODE0_3V3, SpiCmd.SPEED | SPEED_CODES[speed_hz], PERIPHERALS_POWER_CS_HIGH, SpiCmd.CS_HIGH))
 
 
+def entry_script(speed_hz: int) -> tuple[tuple[bytes, bytes], ...]:
+    """(command, exact reply) pairs sent one at a time after the zeros have been drained."""
+    acked = tuple((bytes((cmd,)), bytes((ACK,))) for cmd in setup_commands(speed_hz))
+    return ((bytes((SpiCmd.EXIT_TO_BBIO,)), BBIO_REPLY), (bytes((SpiCmd.ENTER_SPI,)), SPI_REPLY), *acked)
+
+
 def encode_transfers(frames: Sequence[bytes]) -> bytes:
     """One pipelined write: ``02, 1n, data, 03`` per frame (each frame 1..16 bytes)."""
     out = bytearray()
@@ -78,6 +92,23 @@ def encode_transfers(frames: Sequence[bytes]) -> bytes:
 def reply_length(frames: Sequence[bytes]) -> int:
     """Bytes the Bus Pirate answers to :func:`encode_transfers` of ``frames``."""
     return sum(len(f) + 3 for f in frames)
+
+
+def acks_ok(reply: bytes, lengths: Sequence[int]) -> bool:
+    """True if every ack position that ``reply`` (possibly a prefix) reaches holds ``01``.
+
+    Per transfer of n bytes the reply is ``01`` (CS low), ``01`` (bulk), n MISO bytes, ``01``
+    (CS high).
+    """
+    i, end = 0, len(reply)
+    for n in lengths:
+        for pos in (i, i + 1, i + 2 + n):
+            if pos >= end:
+                return True
+            if reply[pos] != ACK:
+                return False
+        i += n + 3
+    return end <= i
 
 
 def decode_transfers(reply: bytes, lengths: Sequence[int]) -> list[bytes] | str:
@@ -98,112 +129,287 @@ def decode_transfers(reply: bytes, lengths: Sequence[int]) -> list[bytes] | str:
     return out
 
 
-def entry_reply_ok(buf: bytes) -> bool:
-    """True if ``buf`` is ``[junk] BBIO1 (BBIO1)* SPI1``: the device is in SPI mode."""
-    if not buf.endswith(SPI_REPLY):
-        return False
-    head = buf[: -len(SPI_REPLY)]
-    first = head.find(BBIO_REPLY)
-    if first < 0:
-        return False
-    rest = head[first:]
-    return rest == BBIO_REPLY * (len(rest) // len(BBIO_REPLY))
+# -- entry: sans-I/O ---------------------------------------------------------------------------
+@unique
+class EntryState(Enum):
+    """Where an :class:`EntrySequence` is."""
+
+    DRAIN = "drain"  # zeros sent: discarding everything until the line is quiet
+    EXCHANGE = "exchange"  # one command sent: exactly its reply expected
+    DONE = "done"
+    FAILED = "failed"
+
+
+class EntrySequence:
+    """One attempt at BBIO1/SPI1 entry and SPI setup, as a byte-in/byte-out state machine.
+
+    Drive it with :meth:`start` (bytes to write) and then :meth:`step` with whatever was read
+    (possibly nothing) and the current time; each returns ``(flush_input, bytes_to_write)``.
+    It never waits itself. Times are seconds on one monotonic clock.
+
+    Args:
+        script: (command, exact reply) pairs, :func:`entry_script`.
+        quiet_s: the line must be silent this long after the zeros before the first command.
+        reply_timeout_s: longest wait for each reply, and for the line to go quiet.
+    """
+
+    NOTHING: tuple[bool, bytes] = (False, b"")
+
+    def __init__(self, script: Sequence[tuple[bytes, bytes]], quiet_s: float, reply_timeout_s: float) -> None:
+        self.script = tuple(script)
+        self.quiet_s = quiet_s
+        self.reply_timeout_s = reply_timeout_s
+        self.state = EntryState.DRAIN
+        self.reason = ""
+        #: Bytes discarded while draining (junk, BBIO1s, late replies).
+        self.drained = 0
+        self._i = 0
+        self._buf = bytearray()
+        self._t_start = self._t_last_rx = self._t_sent = 0.0
+
+    def start(self, now_s: float) -> bytes:
+        """Begin: the 20 zeros to write (after flushing the input)."""
+        self.state = EntryState.DRAIN
+        self._t_start = self._t_last_rx = now_s
+        return bytes(RESET_ZEROS)
+
+    def _fail(self, reason: str) -> tuple[bool, bytes]:
+        self.state = EntryState.FAILED
+        self.reason = reason
+        return self.NOTHING
+
+    def _send(self, i: int, now_s: float) -> bytes:
+        self._i = i
+        self._buf.clear()
+        self._t_sent = now_s
+        return self.script[i][0]
+
+    def step(self, data: bytes, now_s: float) -> tuple[bool, bytes]:
+        """Feed what was read since the last call; returns (flush input first, bytes to write)."""
+        if self.state is EntryState.DRAIN:
+            if data:
+                self.drained += len(data)
+                self._t_last_rx = now_s
+            if now_s - self._t_last_rx >= self.quiet_s:
+                self.state = EntryState.EXCHANGE
+                return True, self._send(0, now_s)
+            if now_s - self._t_start >= self.quiet_s + self.reply_timeout_s:
+                return self._fail(f"line not quiet {self.reply_timeout_s:g} s after {RESET_ZEROS} zeros "
+                                  f"({self.drained} bytes)")
+            return self.NOTHING
+        if self.state is not EntryState.EXCHANGE:
+            return self.NOTHING
+        cmd, expected = self.script[self._i]
+        self._buf += data
+        got = bytes(self._buf)
+        if not expected.startswith(got):  # a wrong byte, or one too many
+            return self._fail(f"{cmd.hex()} answered {got.hex(' ')} (expected {_show(expected)})")
+        if got == expected:
+            if self._i + 1 == len(self.script):
+                self.state = EntryState.DONE
+                return self.NOTHING
+            return False, self._send(self._i + 1, now_s)
+        if now_s - self._t_sent >= self.reply_timeout_s:
+            return self._fail(f"no {_show(expected)} after {cmd.hex()} (got {got.hex(' ') or 'nothing'})")
+        return self.NOTHING
+
+
+def _show(reply: bytes) -> str:
+    """``BBIO1`` for text replies, ``01`` for single bytes."""
+    return reply.decode("ascii") if len(reply) > 1 and reply.isalnum() else reply.hex(" ")
+
+
+# -- the serial part ----------------------------------------------------------------------------
+@unique
+class LinkState(Enum):
+    """Where the bridge is, seen from the flight code."""
+
+    READY = "ready"  # in SPI mode, no reply outstanding
+    REPLY_PENDING = "reply_pending"  # a reply missed the read timeout: its remaining bytes are owed
+    ENTERING = "entering"  # a re-entry is in progress (one non-blocking step per sample)
+    WAITING = "waiting"  # a re-entry failed: the next one starts after the resync interval
 
 
 class BusPirateSpi:
-    """The Bus Pirate on ``port`` (115200 8N1; port read timeout short, e.g. 10 ms).
+    """The Bus Pirate on ``port`` (115200 8N1, port read timeout = the per-sample reply wait).
 
     Args:
         speed_hz: SPI clock, one of :data:`SPEED_CODES` (MCP3204: <= 2 MHz at 5 V).
         entry_attempts: full entry sequences tried at boot before giving up.
-        reply_timeout_s: wait for each entry/setup reply at boot, s (wall clock).
+        reply_timeout_s: longest wait for each entry reply (boot and in flight) and for the
+            rest of a late transfer reply, s (wall clock).
+        quiet_s: the line must be quiet this long after the entry zeros, s (wall clock).
+        resync_interval_ns: after a failed in-flight re-entry, the next starts this much sensor
+            time later, ns.
+        clock: monotonic seconds (``time.monotonic``; tests pass a fake).
     """
 
     name = "adc"
 
     def __init__(self, port: SerialLike, *, speed_hz: int, entry_attempts: int, reply_timeout_s: float,
-                 log: Logger) -> None:
+                 quiet_s: float, resync_interval_ns: int, log: Logger,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         if speed_hz not in SPEED_CODES:
             raise ValueError(f"SPI speed {speed_hz} Hz is not one of {sorted(SPEED_CODES)}")
         self.port = port
         self.speed_hz = speed_hz
         self.entry_attempts = entry_attempts
         self.reply_timeout_s = reply_timeout_s
+        self.quiet_s = quiet_s
+        self.resync_interval_ns = resync_interval_ns
         self.log = log
+        self.clock = clock
         self.counters: Counter[str] = Counter()
-        #: False after a failed transaction until :meth:`resync` succeeds.
-        self.in_sync = False
+        self.state = LinkState.WAITING  # until :meth:`enter_spi` (or the first transfer) enters
+        self._script = entry_script(speed_hz)
+        self._entry: EntrySequence | None = None
+        self._retry_ns: int | None = None  # WAITING: sensor time of the next attempt (None: at once)
+        self._partial = bytearray()  # REPLY_PENDING: what came of the late reply so far
+        self._owed = 0
+        self._lengths: tuple[int, ...] = ()
+        self._pending_since = 0.0
 
-    def _read_until(self, done: Callable[[bytes], bool], deadline: float) -> bytes:
-        buf = bytearray()
-        while not done(bytes(buf)) and time.monotonic() < deadline:
-            buf += self.port.read(max(1, self.port.in_waiting))
-        return bytes(buf)
+    @property
+    def in_sync(self) -> bool:
+        """True when a transfer can go out now."""
+        return self.state is LinkState.READY
 
-    def _enter_once(self, timeout_s: float) -> str | None:
-        """One entry + setup sequence; None on success, else the reason."""
-        port = self.port
-        port.reset_input_buffer()
-        port.write(bytes(RESET_ZEROS))
-        deadline = time.monotonic() + timeout_s
-        got = self._read_until(lambda b: BBIO_REPLY in b, deadline)
-        if BBIO_REPLY not in got:
-            return f"no BBIO1 after {RESET_ZEROS} zeros (got {got[:16].hex(' ') or 'nothing'})"
-        port.write(bytes((SpiCmd.ENTER_SPI,)))
-        got += self._read_until(lambda b: entry_reply_ok(got + b), deadline)
-        if not entry_reply_ok(got):
-            return f"no SPI1 after 01 (got ...{got[-16:].hex(' ')})"
-        setup = setup_commands(self.speed_hz)
-        port.write(setup)
-        acks = self._read_until(lambda b: len(b) >= len(setup), deadline)
-        if acks != bytes((ACK,)) * len(setup):
-            return f"setup {setup.hex(' ')} answered {acks.hex(' ') or 'nothing'}"
-        self.in_sync = True
-        return None
+    # -- entry ------------------------------------------------------------------------------
+    def _begin_entry(self) -> EntrySequence:
+        seq = EntrySequence(self._script, self.quiet_s, self.reply_timeout_s)
+        self.port.reset_input_buffer()
+        self.port.write(seq.start(self.clock()))
+        self._entry = seq
+        self.state = LinkState.ENTERING
+        return seq
+
+    def _entry_step(self, seq: EntrySequence, data: bytes) -> None:
+        flush, out = seq.step(data, self.clock())
+        if flush:
+            self.port.reset_input_buffer()
+        if out:
+            self.port.write(out)
 
     def enter_spi(self) -> None:
-        """Boot: BBIO1 entry with retries, SPI1, config/speed/peripherals/CS; DeviceError on failure."""
+        """Boot: entry with retries, blocking; DeviceError naming the adc on failure."""
         reason = "not tried"
+        port = self.port
         for attempt in range(1, self.entry_attempts + 1):
-            reason = self._enter_once(self.reply_timeout_s) or ""
-            if not reason:
-                self.log.info("adc.spi_mode", attempts=attempt, speed_hz=self.speed_hz)
+            seq = self._begin_entry()
+            while seq.state in (EntryState.DRAIN, EntryState.EXCHANGE):
+                n = port.in_waiting
+                self._entry_step(seq, port.read(n if n else 1))  # in silence waits the port timeout
+            if seq.state is EntryState.DONE:
+                self.state = LinkState.READY
+                self._entry = None
+                self.log.info("adc.spi_mode", attempts=attempt, speed_hz=self.speed_hz, drained=seq.drained)
                 return
+            reason = seq.reason
             self.log.warning("adc.entry_retry", attempt=attempt, reason=reason)
         raise DeviceError(self.name, f"Bus Pirate did not enter binary SPI mode after "
                                      f"{self.entry_attempts} attempt(s): {reason}")
 
-    def resync(self, timeout_s: float) -> bool:
-        """In flight: flush and re-enter SPI mode once (bounded by ``timeout_s``); counted."""
-        self.counters["resyncs"] += 1
-        reason = self._enter_once(timeout_s)
-        if reason:
+    def lose_sync(self, reason: str) -> None:
+        """The caller found the data wrong (e.g. the MCP3204's null bit): re-enter from the next sample."""
+        self.counters[reason] += 1
+        self.state = LinkState.WAITING
+        self._retry_ns = None
+
+    def _poll_entry(self, t_ns: int) -> bool:
+        """One non-blocking step of the in-flight re-entry; True once the bridge is ready."""
+        if self.state is LinkState.WAITING:
+            if self._retry_ns is not None and t_ns < self._retry_ns:
+                return False
+            self.counters["resyncs"] += 1
+            self._begin_entry()
+            return False  # replies come later: the next samples poll them
+        seq = self._entry
+        assert seq is not None
+        n = self.port.in_waiting
+        self._entry_step(seq, self.port.read(n) if n else b"")
+        if seq.state is EntryState.DONE:
+            self.state = LinkState.READY
+            self._entry = None
+            self.log.info("adc.resynced", resyncs=self.counters["resyncs"], drained=seq.drained)
+            return True
+        if seq.state is EntryState.FAILED:
             self.counters["resync_failures"] += 1
-            n = self.counters["resync_failures"]
-            if n & (n - 1) == 0:  # 1st, 2nd, 4th, ...: a dead bridge must not flood the log
-                self.log.warning("adc.resync_failed", failures=n, reason=reason)
+            n_fail = self.counters["resync_failures"]
+            if n_fail & (n_fail - 1) == 0:  # 1st, 2nd, 4th, ...: a dead bridge must not flood the log
+                self.log.warning("adc.resync_failed", failures=n_fail, reason=seq.reason)
+            self.state = LinkState.WAITING
+            self._retry_ns = t_ns + self.resync_interval_ns
+            self._entry = None
+        return False
+
+    # -- transfers --------------------------------------------------------------------------
+    def _collect_late(self) -> bool:
+        """REPLY_PENDING: take the owed bytes that have arrived; True once the line is clear."""
+        port = self.port
+        n = port.in_waiting
+        if n:
+            got = port.read(min(n, self._owed))
+            self._partial += got
+            self._owed -= len(got)
+        if self._owed:
+            if self.clock() - self._pending_since >= self.reply_timeout_s:
+                self.counters["replies_lost"] += 1
+                self.lose_sync("replies_lost_sync")
             return False
-        self.log.info("adc.resynced", resyncs=self.counters["resyncs"])
+        if decode_transfers(bytes(self._partial), self._lengths) == "bad_ack":
+            self.counters["bad_ack"] += 1
+            self.lose_sync("late_reply_bad")
+            return False
+        self.counters["late_replies_discarded"] += 1
+        self.state = LinkState.READY
         return True
 
-    def transfer(self, frames: Sequence[bytes]) -> list[bytes] | None:
-        """All ``frames`` as CS-framed bulk transfers: one write, one read; None on failure.
+    def transfer(self, frames: Sequence[bytes], t_ns: int = 0) -> list[bytes] | None:
+        """All ``frames`` as CS-framed bulk transfers: one write, one read; None this sample.
 
-        A short or malformed reply is counted (``short``/``bad_ack``), the input flushed
-        and the bridge marked out of sync (the caller decides when to :meth:`resync`).
+        See :meth:`transfer_encoded`.
         """
-        return self.transfer_encoded(encode_transfers(frames), [len(f) for f in frames])
+        return self.transfer_encoded(encode_transfers(frames), tuple(len(f) for f in frames), t_ns)
 
-    def transfer_encoded(self, wire: bytes, lengths: Sequence[int]) -> list[bytes] | None:
+    def transfer_encoded(self, wire: bytes, lengths: tuple[int, ...], t_ns: int) -> list[bytes] | None:
         """:meth:`transfer` with the write already built by :func:`encode_transfers` (the
-        per-tick path: the same four conversions every sample)."""
-        self.port.write(wire)
-        reply = self.port.read(sum(n + 3 for n in lengths))
-        result = decode_transfers(reply, lengths)
-        if isinstance(result, str):
-            self.counters[result] += 1
-            self.in_sync = False
-            self.port.reset_input_buffer()
+        per-sample path: the same four conversions every sample). ``t_ns`` is sensor time.
+
+        Returns the MISO bytes of each transfer, or None when this sample has no data: the
+        previous reply is still owed, a re-entry is in progress, or this reply was short
+        (counted ``late_replies``: its rest is collected at the next sample) or malformed
+        (counted ``bad_ack``: the bridge is re-entered). Blocks at most the port's read timeout.
+        """
+        state = self.state
+        if state is LinkState.REPLY_PENDING and not self._collect_late():
             return None
-        self.counters["transfers"] += 1
-        return result
+        if state in (LinkState.ENTERING, LinkState.WAITING) and not self._poll_entry(t_ns):
+            return None
+        port = self.port
+        if port.in_waiting:  # nothing is owed, so these bytes are junk: never let them shift a reply
+            self.counters["unexpected_input"] += 1
+            port.reset_input_buffer()
+        port.write(wire)
+        self.counters["requests"] += 1
+        size = sum(n + 3 for n in lengths)
+        reply = port.read(size)
+        if len(reply) == size:
+            result = decode_transfers(reply, lengths)
+            if not isinstance(result, str):
+                self.counters["transfers"] += 1
+                return result
+            self.counters[result] += 1
+            self.lose_sync("resync_bad_reply")
+            return None
+        if not acks_ok(reply, lengths):
+            self.counters["bad_ack"] += 1
+            self.lose_sync("resync_bad_reply")
+            return None
+        # Late, not lost: the rest is owed and collected before the next write.
+        self.counters["late_replies"] += 1
+        self.state = LinkState.REPLY_PENDING
+        self._partial = bytearray(reply)
+        self._owed = size - len(reply)
+        self._lengths = lengths
+        self._pending_since = self.clock()
+        return None

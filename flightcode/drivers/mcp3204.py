@@ -12,11 +12,10 @@ byte   MOSI                          MISO
 
 so CH0..CH3 single-ended are ``06 00 00``, ``06 40 00``, ``06 80 00``, ``06 C0 00``.
 
-:class:`Mcp3204Reader` sends all channels in one pipelined bridge write per tick. A failed
-transaction (short reply, bad ack, null bit set) makes the tick's reading invalid (None);
-the bridge is re-entered at the next tick, and after a failed re-entry only every
-``resync_interval_ns`` of sensor time, so a dead ADC costs at most one bounded wait per
-interval instead of one per tick.
+:class:`Mcp3204Reader` sends all channels in one pipelined bridge write per sample. A sample
+whose reply is late, malformed or has a null bit set has no reading (None); the bridge
+collects late replies and re-enters SPI mode itself (:class:`BusPirateSpi`), so a bad
+exchange costs the samples it takes to put right, never a misread code.
 """
 
 from __future__ import annotations
@@ -47,43 +46,32 @@ def decode(miso: bytes) -> int | None:
 
 
 class Mcp3204Reader:
-    """Reads ``channels`` each tick through ``bridge``.
+    """Reads ``channels`` each sample through ``bridge``.
 
     Args:
-        bridge: a bridge already in SPI mode (:meth:`BusPirateSpi.enter_spi`).
+        bridge: the SPI bridge (entered at boot with :meth:`BusPirateSpi.enter_spi`).
         channels: MCP3204 channel numbers in the order the codes are returned.
-        resync_interval_ns: sensor time between re-entry attempts after one failed, ns.
-        resync_timeout_s: wall-clock bound of one in-flight re-entry, s.
     """
 
     name = "adc"
 
-    def __init__(self, bridge: BusPirateSpi, channels: Sequence[int], *, resync_interval_ns: int,
-                 resync_timeout_s: float) -> None:
+    def __init__(self, bridge: BusPirateSpi, channels: Sequence[int]) -> None:
         self.bridge = bridge
         self.channels = tuple(channels)
         self._frames = [request(ch) for ch in self.channels]
         self._wire = encode_transfers(self._frames)
-        self._lengths = [len(f) for f in self._frames]
-        self.resync_interval_ns = resync_interval_ns
-        self.resync_timeout_s = resync_timeout_s
+        self._lengths = tuple(len(f) for f in self._frames)
+        #: reads (good samples), failed_reads (a transfer went out and gave no codes),
+        #: null_bit_errors, no_transfer (the bridge was busy: late reply owed or re-entering).
         self.counters: Counter[str] = Counter()
-        self._next_resync_ns: int | None = None
 
     def read_codes(self, t_ns: int) -> tuple[int, ...] | None:
-        """Codes of all channels for the sample at sensor time ``t_ns``, or None this tick."""
+        """Codes of all channels for the sample at sensor time ``t_ns``, or None this sample."""
         bridge = self.bridge
-        if not bridge.in_sync:
-            if self._next_resync_ns is not None and t_ns < self._next_resync_ns:
-                self.counters["skipped_out_of_sync"] += 1
-                return None
-            if not bridge.resync(self.resync_timeout_s):
-                self._next_resync_ns = t_ns + self.resync_interval_ns
-                return None
-        replies = bridge.transfer_encoded(self._wire, self._lengths)
+        sent = bridge.counters["requests"]
+        replies = bridge.transfer_encoded(self._wire, self._lengths, t_ns)
         if replies is None:
-            self.counters["failed_reads"] += 1
-            self._next_resync_ns = None  # re-enter at the next tick
+            self.counters["failed_reads" if bridge.counters["requests"] != sent else "no_transfer"] += 1
             return None
         codes = []
         for miso in replies:
@@ -91,8 +79,7 @@ class Mcp3204Reader:
             if code is None:
                 self.counters["null_bit_errors"] += 1
                 self.counters["failed_reads"] += 1
-                bridge.in_sync = False  # wrong SPI mode or framing: re-apply the setup
-                self._next_resync_ns = None
+                bridge.lose_sync("null_bit")  # wrong SPI mode or framing: re-apply the setup
                 return None
             codes.append(code)
         self.counters["reads"] += 1

@@ -24,11 +24,30 @@ G = 9.80665
 
 
 # -- the port ----------------------------------------------------------------------------------
-class FakeSerial:
-    """A pyserial-like port. ``device.on_write(data)`` answers; ``on_starve`` runs when a read finds too little."""
+class FakeClock:
+    """Monotonic seconds that move only when told (a fake port's read blocking, a world tick)."""
 
-    def __init__(self, name: str) -> None:
+    def __init__(self) -> None:
+        self.now_s = 0.0
+
+    def __call__(self) -> float:
+        return self.now_s
+
+    def advance(self, dt_s: float) -> None:
+        self.now_s += dt_s
+
+
+class FakeSerial:
+    """A pyserial-like port. ``device.on_write(data)`` answers; ``on_starve`` runs when a read finds too little.
+
+    With a ``clock``, a read that still finds too little after ``on_starve`` advances it by
+    ``timeout_s`` (the time a real read would have blocked).
+    """
+
+    def __init__(self, name: str, clock: FakeClock | None = None, timeout_s: float = 0.0) -> None:
         self.name = name
+        self.clock = clock
+        self.timeout_s = timeout_s
         self.rx = bytearray()
         self.written: list[bytes] = []
         self.on_write: Callable[[bytes], None] = lambda data: None
@@ -49,6 +68,8 @@ class FakeSerial:
         self.reads += 1
         if len(self.rx) < size:
             self.on_starve()
+            if len(self.rx) < size and self.clock is not None:
+                self.clock.advance(self.timeout_s)
         out = bytes(self.rx[:size])
         del self.rx[:size]
         return out
@@ -390,7 +411,10 @@ class FakeWorld:
 
     def __init__(self, sticks: Callable[[float], list[float] | None], *, legacy_imu: bool = False,
                  rc_frontend: str = "capture", seed: int = 1, motor_tau_s: float = 0.0) -> None:
-        self.ports = {name: FakeSerial(name) for name in ("imu", "adc", "rc", "esc", "telemetry")}
+        #: wall clock of the lockstep: a tick per sample, a read timeout per starved ADC read
+        self.clock = FakeClock()
+        self.ports = {name: FakeSerial(name, self.clock, 0.02 if name == "adc" else 0.0)
+                      for name in ("imu", "adc", "rc", "esc", "telemetry")}
         self.rng = np.random.default_rng(seed)
         self.imu = FakeXsens(self.ports["imu"], legacy=legacy_imu)
         self.adc = FakeBusPirate(self.ports["adc"], self._adc_code)
@@ -469,6 +493,7 @@ class FakeWorld:
         if self.k >= 0:
             self._step_plant(TICK_NS * 1e-9)
         self.k += 1
+        self.clock.advance(TICK_NS * 1e-9)
         t_ns = self.k * TICK_NS
         self.rc.advance(t_ns)
         self.trace.append((t_ns, self.plant.z_m, list(self.plant.euler_rad), list(self.esc.pulses_us)))

@@ -14,17 +14,19 @@ from flightcode.drivers.base import DeviceError
 from flightcode.drivers.buspirate_spi import BusPirateSpi
 from flightcode.drivers.mcp3204 import Mcp3204Reader
 from flightcode.log import Logger
-from tests.unit.flightcode.fakes import FakeBusPirate, FakeSerial
+from tests.unit.flightcode.fakes import FakeBusPirate, FakeClock, FakeSerial
 
 CODES = {0: 2420, 1: 2703, 2: 2048, 3: 1392}
+TICK_NS = 2_500_000
 
 
 def _bridge(attempts: int = 2) -> tuple[BusPirateSpi, FakeBusPirate, FakeSerial, io.StringIO]:
-    port = FakeSerial("adc")
+    clock = FakeClock()
+    port = FakeSerial("adc", clock, timeout_s=0.01)  # a starved read blocks the 10 ms timeout
     dev = FakeBusPirate(port, lambda ch: CODES[ch])
     out = io.StringIO()
-    return BusPirateSpi(port, speed_hz=1_000_000, entry_attempts=attempts, reply_timeout_s=0.02,
-                        log=Logger(out)), dev, port, out
+    return BusPirateSpi(port, speed_hz=1_000_000, entry_attempts=attempts, reply_timeout_s=0.02, quiet_s=0.01,
+                        resync_interval_ns=250_000_000, log=Logger(out), clock=clock), dev, port, out
 
 
 def test_mcp3204_requests_match_the_datasheet_framing() -> None:
@@ -65,25 +67,82 @@ def test_entry_from_any_mode(start_mode: str) -> None:
     dev.mode = start_mode
     bridge.enter_spi()
     assert dev.mode == "spi" and bridge.in_sync
-    assert port.written[0] == bytes(20) and port.written[1] == b"\x01"
+    # flashrom's entry: the zeros, then 00 -> BBIO1, 01 -> SPI1 and each setup command alone
+    assert port.written == [bytes(20), b"\x00", b"\x01", b"\x8a", b"\x63", b"\x49", b"\x03"]
     assert dev.config_bytes == [0x8A, 0x63, 0x49]
     assert "event=adc.spi_mode attempts=1" in out.getvalue()
 
 
-def test_entry_reply_check() -> None:
-    assert bp.entry_reply_ok(b"BBIO1SPI1")
-    assert bp.entry_reply_ok(b"\r\nHiZ>BBIO1BBIO1BBIO1SPI1")
-    assert not bp.entry_reply_ok(b"BBIO1xSPI1")
-    assert not bp.entry_reply_ok(b"SPI1")
-    assert not bp.entry_reply_ok(b"BBIO1BBIO1")
+def _entry(seq: bp.EntrySequence, replies: list[bytes], dt_s: float = 0.001) -> list[tuple[bool, bytes]]:
+    now = 0.0
+    steps = [(True, seq.start(now))]
+    for data in replies:
+        now += dt_s
+        steps.append(seq.step(data, now))
+    return steps
 
 
-def test_entry_retries_then_succeeds() -> None:
+def test_entry_sequence_golden_exchange() -> None:
+    # DP wiki "SPI (binary)" / flashrom buspirate_spi_init: 00 -> BBIO1, 01 -> SPI1, then each
+    # configuration command is acknowledged with 0x01.
+    seq = bp.EntrySequence(bp.entry_script(1_000_000), quiet_s=0.0025, reply_timeout_s=0.1)
+    steps = _entry(seq, [b"\r\nHiZ>", b"BBIO1", b"", b"", b"", b"BBIO1", b"SPI1", b"\x01", b"\x01", b"\x01", b"\x01"])
+    writes = [w for _, w in steps if w]
+    assert writes == [bytes(20), b"\x00", b"\x01", b"\x8a", b"\x63", b"\x49", b"\x03"]
+    assert [f for f, w in steps if w] == [True, True, False, False, False, False, False]  # flush before 00
+    assert seq.state is bp.EntryState.DONE and seq.drained == 11
+
+
+def test_entry_sequence_byte_by_byte_and_with_garbage() -> None:
+    script = bp.entry_script(1_000_000)
+    seq = bp.EntrySequence(script, quiet_s=0.0025, reply_timeout_s=0.1)
+    replies = [b"", b"", b"", *[bytes((c,)) for c in b"BBIO1"], *[bytes((c,)) for c in b"SPI1"], *[b"\x01"] * 4]
+    _entry(seq, replies)
+    assert seq.state is bp.EntryState.DONE
+    for bad, reason in ((b"BBIO2", "00 answered 42 42 49 4f 32 (expected BBIO1)"),
+                        (b"BBIO1B", "00 answered 42 42 49 4f 31 42 (expected BBIO1)"),
+                        (b"\x01", "00 answered 01 (expected BBIO1)")):
+        seq = bp.EntrySequence(script, quiet_s=0.0025, reply_timeout_s=0.1)
+        _entry(seq, [b"", b"", b"", bad])
+        assert seq.state is bp.EntryState.FAILED and seq.reason == reason
+
+
+def test_entry_sequence_times_out_and_bounds_a_babbling_line() -> None:
+    script = bp.entry_script(1_000_000)
+    seq = bp.EntrySequence(script, quiet_s=0.0025, reply_timeout_s=0.01)
+    _entry(seq, [b""] * 20)
+    assert seq.state is bp.EntryState.FAILED and seq.reason == "no BBIO1 after 00 (got nothing)"
+    seq = bp.EntrySequence(script, quiet_s=0.0025, reply_timeout_s=0.01)
+    _entry(seq, [b"HiZ>"] * 20)  # never quiet
+    assert seq.state is bp.EntryState.FAILED and seq.reason.startswith("line not quiet")
+
+
+def test_ack_prefix_check() -> None:
+    reply = b"".join(b"\x01\x01" + bytes((0, c >> 8, c & 0xFF)) + b"\x01" for c in (1, 2, 3, 4))
+    assert all(bp.acks_ok(reply[:n], [3] * 4) for n in range(25))
+    assert not bp.acks_ok(b"\x01\x00", [3] * 4)
+    assert not bp.acks_ok(reply[:5] + b"\x00", [3] * 4)
+    assert not bp.acks_ok(reply + b"\x01", [3] * 4)  # longer than the reply
+
+
+def test_noise_on_the_zeros_answer_is_drained_and_on_a_reply_retried() -> None:
     bridge, dev, port, out = _bridge(attempts=3)
-    dev.garbage_next = b"\x00garbage"  # first BBIO1 reply is lost in line noise
+    dev.garbage_next = b"\x00garbage"  # the BBIO1 after the zeros is lost in line noise: drained
+    bridge.enter_spi()
+    assert bridge.in_sync and "event=adc.spi_mode attempts=1 speed_hz=1000000 drained=8" in out.getvalue()
+
+    bridge, dev, port, out = _bridge(attempts=3)
+    answer = port.on_write
+
+    def noisy(data: bytes) -> None:
+        if data == b"\x00" and not dev.config_bytes and "retry" not in out.getvalue():
+            dev.garbage_next = b"BBI\xff1"  # the answer to the single 00 is garbled once
+        answer(data)
+
+    port.on_write = noisy
     bridge.enter_spi()
     assert bridge.in_sync
-    assert "event=adc.entry_retry attempt=1" in out.getvalue()
+    assert 'event=adc.entry_retry attempt=1 reason="00 answered 42 42 49 ff 31 (expected BBIO1)"' in out.getvalue()
 
 
 def test_dead_bridge_fails_boot_naming_the_adc() -> None:
@@ -97,8 +156,7 @@ def test_dead_bridge_fails_boot_naming_the_adc() -> None:
 def _reader() -> tuple[Mcp3204Reader, BusPirateSpi, FakeBusPirate, FakeSerial]:
     bridge, dev, port, _ = _bridge()
     bridge.enter_spi()
-    reader = Mcp3204Reader(bridge, (0, 1, 2, 3), resync_interval_ns=250_000_000, resync_timeout_s=0.01)
-    return reader, bridge, dev, port
+    return Mcp3204Reader(bridge, (0, 1, 2, 3)), bridge, dev, port
 
 
 def test_one_write_one_read_per_tick() -> None:
@@ -106,54 +164,69 @@ def test_one_write_one_read_per_tick() -> None:
     writes, reads = len(port.written), port.reads
     assert reader.read_codes(0) == (2420, 2703, 2048, 1392)
     assert len(port.written) - writes == 1 and port.reads - reads == 1
+    assert port.written[-1] == bytes.fromhex("02 12 06 00 00 03 02 12 06 40 00 03 02 12 06 80 00 03 02 12 06 c0 00 03")
     assert dev.transactions == 4
 
 
 def test_channel_order_follows_the_map() -> None:
     bridge, dev, _, _ = _bridge()
     bridge.enter_spi()
-    reader = Mcp3204Reader(bridge, (3, 0, 2, 1), resync_interval_ns=1, resync_timeout_s=0.01)
+    reader = Mcp3204Reader(bridge, (3, 0, 2, 1))
     assert reader.read_codes(0) == (1392, 2420, 2048, 2703)
 
 
-def test_garbage_reply_resyncs_next_tick_and_recovers() -> None:
+def _until_codes(reader: Mcp3204Reader, port: FakeSerial, k0: int, limit: int = 200) -> int:
+    """Samples from k0 until codes come back (each sample 0.5 ms of wall time); returns k."""
+    for k in range(k0, k0 + limit):
+        if reader.read_codes(k * TICK_NS) is not None:
+            return k
+        assert port.clock is not None
+        port.clock.advance(0.0005)
+    raise AssertionError("no codes")
+
+
+def test_garbage_reply_resyncs_without_blocking_and_recovers() -> None:
     reader, bridge, dev, port = _reader()
     dev.garbage_next = b"\x01\x01\xff\xff\xff\x00" * 4  # a bad ack in the third byte of each channel
     assert reader.read_codes(0) is None
     assert bridge.counters["bad_ack"] == 1 and not bridge.in_sync
-    assert reader.read_codes(2_500_000) == (2420, 2703, 2048, 1392)  # re-entered SPI mode first
-    assert bridge.counters["resyncs"] == 1 and bridge.in_sync
+    assert reader.read_codes(TICK_NS) is None  # the re-entry starts: 20 zeros, then polled
+    assert port.written[-1] == bytes(20) and bridge.counters["resyncs"] == 1
+    k = _until_codes(reader, port, 2)
+    assert k * 0.0005 >= 0.01  # it waited quiet_s of wall time before the single 00
+    assert bridge.in_sync and reader.read_codes((k + 1) * TICK_NS) == (2420, 2703, 2048, 1392)
 
 
 def test_silent_bridge_is_retried_only_every_interval() -> None:
-    reader, bridge, dev, _ = _reader()
+    reader, bridge, dev, port = _reader()
     dev.dead = True
-    assert reader.read_codes(0) is None  # short reply
-    assert reader.read_codes(2_500_000) is None  # resync attempt fails
-    assert bridge.counters["resync_failures"] == 1
-    for k in range(2, 100):  # within the 250 ms interval: no further attempt
-        assert reader.read_codes(k * 2_500_000) is None
-    assert bridge.counters["resyncs"] == 1 and reader.counters["skipped_out_of_sync"] == 98
+    for k in range(400):  # one second of samples
+        assert reader.read_codes(k * TICK_NS) is None
+        assert port.clock is not None
+        port.clock.advance(0.0005)
+    assert bridge.counters["replies_lost"] == 1 and bridge.counters["requests"] == 1
+    assert 1 <= bridge.counters["resync_failures"] <= 4  # per resync interval, not per sample
     dev.dead = False
-    assert reader.read_codes(255_000_000) == (2420, 2703, 2048, 1392)
-    assert bridge.counters["resyncs"] == 2
+    _until_codes(reader, port, 400, limit=400)
+    assert reader.counters["reads"] == 1
 
 
 def test_null_bit_error_forces_a_resync() -> None:
-    reader, bridge, dev, _ = _reader()
+    reader, bridge, dev, port = _reader()
     dev.garbage_next = (b"\x01\x01\x00\x1f\xff\x01") * 4
     assert reader.read_codes(0) is None
     assert reader.counters["null_bit_errors"] == 1 and not bridge.in_sync
-    assert reader.read_codes(2_500_000) is not None
+    _until_codes(reader, port, 1)
+    assert bridge.counters["resyncs"] == 1
 
 
 @settings(max_examples=40, deadline=None)
 @given(garbage=st.binary(min_size=1, max_size=40))
 def test_any_garbage_reply_never_raises(garbage: bytes) -> None:
-    reader, bridge, dev, _ = _reader()
+    reader, bridge, dev, port = _reader()
     dev.garbage_next = garbage
     first = reader.read_codes(0)
     # either the garbage happened to be a valid-looking reply, or it was rejected; then recovery
     assert first is None or len(first) == 4
-    assert reader.read_codes(2_500_000) == (2420, 2703, 2048, 1392) or reader.read_codes(5_000_000) == (
-        2420, 2703, 2048, 1392)
+    k = _until_codes(reader, port, 1, limit=2000)
+    assert reader.read_codes((k + 1) * TICK_NS) == (2420, 2703, 2048, 1392)

@@ -52,7 +52,7 @@ def run(sticks: Sticks, samples: int, extra: str = "", **world: object) -> tuple
     w = FakeWorld(sticks, **world)  # type: ignore[arg-type]
     out = io.StringIO()
     log = Logger(out)
-    loop = FlightLoop(cfg, make_devices(cfg, w.ports, log), log)  # type: ignore[arg-type]
+    loop = FlightLoop(cfg, make_devices(cfg, w.ports, log, w.clock), log)  # type: ignore[arg-type]
     loop.boot()
     loop.run(max_iterations=samples)
     return loop, w, out.getvalue()
@@ -197,7 +197,7 @@ def test_silent_imu_fails_boot_naming_it() -> None:
     cfg = parse(PORTS + "[imu]\ngoto_config_attempts = 2\nreply_timeout_s = 0.01\n")
     w = FakeWorld(pilot)
     w.imu.silent = True
-    loop = FlightLoop(cfg, make_devices(cfg, w.ports, Logger(io.StringIO())), Logger(io.StringIO()))  # type: ignore
+    loop = FlightLoop(cfg, make_devices(cfg, w.ports, Logger(io.StringIO()), w.clock), Logger(io.StringIO()))  # type: ignore
     with pytest.raises(DeviceError) as err:
         loop.boot()
     assert err.value.device == "imu"
@@ -208,7 +208,7 @@ def test_dead_adc_fails_boot_naming_it() -> None:
     w = FakeWorld(pilot)
     w.adc.dead = True
     log = Logger(io.StringIO())
-    loop = FlightLoop(cfg, make_devices(cfg, w.ports, log), log)  # type: ignore[arg-type]
+    loop = FlightLoop(cfg, make_devices(cfg, w.ports, log, w.clock), log)  # type: ignore[arg-type]
     with pytest.raises(DeviceError) as err:
         loop.boot()
     assert err.value.device == "adc"
