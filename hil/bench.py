@@ -77,6 +77,7 @@ class TickLoop:
         before_tick: TickHook | None = None,
         after_tick: TickHook | None = None,
         flight_exited: asyncio.Event | None = None,
+        flight_running: Callable[[], bool] | None = None,
     ) -> None:
         self.devices = devices
         self.mode = mode
@@ -87,6 +88,9 @@ class TickLoop:
         self.before_tick = before_tick
         self.after_tick = after_tick
         self.flight_exited = flight_exited or asyncio.Event()
+        #: False while no flight code process exists (a restart fault's downtime): no one
+        #: can answer the barrier then, so the tick does not wait for it
+        self.flight_running = flight_running or (lambda: True)
         self.stats = TickStats()
         self.t_ns = -int(boot_timeout_s * 1e9)
         self.k = -1
@@ -163,7 +167,7 @@ class TickLoop:
                 work = t_emit - work_start
                 if emitted:
                     self.stats.samples += 1
-                if self._barrier is not None and (emitted or due):
+                if self._barrier is not None and (emitted or due) and self.flight_running():
                     fut = self._barrier
                     handle = loop.call_later(timeout_s, _time_out, fut)
                     try:

@@ -233,6 +233,16 @@ def perf(
     console.print(table)
 
 
+@app.command()
+def faults(
+    layer: Annotated[Optional[str], typer.Option(help="Only this layer (plant, sensor, wire, device, process...).")] = None,
+) -> None:
+    """The fault catalogue: every kind with its parameters, units and defaults."""
+    from hil.faults import print_catalogue
+
+    print_catalogue(console, layer)
+
+
 def main() -> None:  # pragma: no cover - console entry
     app()
 

@@ -57,6 +57,7 @@ async def serve_devices(
     runner = ScenarioRunner(scenario, rig)
     devices = DeviceSet(rig, seed=seed, stick_script=runner.stick_script(), with_spidriver=True)
     runner.bind(devices)
+    runner.attach_flight(None)
     ports = {name: PtyPort(name, dev_dir) for name in DEVICE_PORTS}
     for port in ports.values():
         await port.start()
@@ -94,6 +95,7 @@ async def serve_devices(
     except asyncio.CancelledError:
         console.print("stopped")
     finally:
+        runner.finish(max(loop.t_ns, 0))
         with contextlib.suppress(NotImplementedError, RuntimeError):
             aloop.remove_signal_handler(signal.SIGINT)
         for port in ports.values():

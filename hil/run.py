@@ -208,6 +208,7 @@ async def run_flight_async(
         before_tick=runner.before_tick,
         after_tick=logger.after_tick,
         flight_exited=flight.exited,
+        flight_running=lambda: flight.running,
     )
     runner.attach_flight(flight)
     if on_ready is not None:
@@ -234,6 +235,8 @@ async def run_flight_async(
         end, message = EndReason.ERROR, f"bench error: {type(exc).__name__}: {exc}"
         logger.event(max(loop.t_ns, 0), "run", "bench error", {"error": repr(exc)})
     finally:
+        runner.finish(max(loop.t_ns, 0))
+        await runner.aclose()
         returncode = await flight.stop()
         with contextlib.suppress(Exception):
             await asyncio.sleep(0)  # let the last stderr lines reach the logger

@@ -47,6 +47,17 @@ class ScenarioRunner:
         self.flight: FlightProcess | None = None
         self.log_event: EventLogger = lambda t_ns, kind, name, detail: None
         self._timed: list[tuple[int, Callable[[int], None], str, dict[str, Any]]] = []
+        # Faults are checked against the rig now, at load: a fault the rig cannot apply is
+        # refused here with file, entry, key and reason (never accepted silently).
+        from hil.faults import load_faults
+
+        self.faults = load_faults(
+            scenario.faults,
+            rig,
+            source=str(source) if source is not None else f"scenario {scenario.name}",
+            run_duration_s=scenario.scenario.duration_s,
+        )
+        self.schedule: Any = None
         self._next = 0
         for key in scenario.timing:
             if key not in TIMING_BUDGETS:
@@ -100,14 +111,36 @@ class ScenarioRunner:
                 self._at(t_ns, lambda t: None, "gust", ev.model_dump())
         self._timed.sort(key=lambda item: item[0])
 
-    def attach_flight(self, flight: FlightProcess) -> None:
+    def attach_flight(self, flight: FlightProcess | None) -> None:
+        """Build the fault schedule (process faults need the flight code process)."""
+        from hil.faults import FaultSchedule
+
         self.flight = flight
+        assert self.devices is not None, "bind(devices) first"
+        self.schedule = FaultSchedule(
+            self.faults,
+            self.devices,
+            log_event=lambda t_ns, kind, name, detail: self.log_event(t_ns, kind, name, detail),
+            flight=flight,
+        )
+
+    def finish(self, t_ns: int) -> None:
+        """End of the run: revert every active fault."""
+        if self.schedule is not None:
+            self.schedule.finish(t_ns)
+
+    async def aclose(self) -> None:
+        """Cancel background fault work (a pending flight-code restart)."""
+        if self.schedule is not None:
+            await self.schedule.aclose()
 
     def _at(self, t_ns: int, action: Callable[[int], None], name: str, detail: dict[str, Any]) -> None:
         self._timed.append((t_ns, action, name, detail))
 
     # -- during the run ----------------------------------------------------------------------------
     def before_tick(self, k: int, t_ns: int) -> None:
+        if self.schedule is not None:
+            self.schedule.before_tick(t_ns)
         while self._next < len(self._timed) and self._timed[self._next][0] <= t_ns:
             at, action, name, detail = self._timed[self._next]
             action(t_ns)
