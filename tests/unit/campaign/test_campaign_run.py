@@ -1,0 +1,155 @@
+"""Campaigns end to end: real lockstep cases through the process pool and through Dask, a case
+whose process is SIGKILLed, a worker that dies, and Ctrl-C."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import signal
+import threading
+from pathlib import Path
+from typing import Any
+
+import pytest
+from rich.console import Console
+
+from hil.campaign import CampaignRun, KeepLogs, load_campaign, run_campaign
+from hil.record import read_attachments, read_metadata
+from tests.unit.campaign import cases as fake
+
+pytestmark = [pytest.mark.system, pytest.mark.pty]
+DATA = Path(__file__).with_name("data")
+
+
+def _quiet() -> Console:
+    return Console(file=io.StringIO(), width=200)
+
+
+def _campaign_file(tmp_path: Path, body: str) -> Path:
+    path = tmp_path / "campaign.toml"
+    path.write_text(f'[campaign]\nname = "t"\nscenarios = ["{DATA / "hover-2s.toml"}"]\n{body}')
+    return path
+
+
+def _jsonl(run: CampaignRun) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in (run.dir / "results.jsonl").read_text().splitlines()]
+
+
+def _check_two_seed_run(run: CampaignRun) -> list[dict[str, Any]]:
+    """What both executors must produce for data/two-seeds.toml."""
+    lines = _jsonl(run)
+    assert sorted(r["case_id"] for r in lines) == ["0000", "0001"]
+    by_seed = {r["seed"]: r for r in lines}
+    assert set(by_seed) == {1, 2}
+    for r in lines:
+        assert r["passed"] and r["end_reason"] == "completed", r
+        assert r["scenario"] == "hover-2s" and r["returncode"] == 0
+        assert r["overrides"] == {"flight.adc.read_timeout_s": 0.3}
+        assert [c["name"] for c in r["criteria"]] == ["stays on the ground", "level"]
+        assert all(c["passed"] and c["value"] is not None for c in r["criteria"])
+        assert r["timing"]["ticks"] == 801 and r["sim_s"] == pytest.approx(2.0025)
+        assert r["wall_s"] > 0
+    summary = json.loads((run.dir / "summary.json").read_text())
+    assert summary == json.loads(json.dumps(run.summary))
+    assert (summary["cases"], summary["done"], summary["passed"], summary["failed"]) == (2, 2, 2, 0)
+    assert not summary["interrupted"] and summary["cancelled"] == 0
+    scen = summary["by_scenario"]["hover-2s"]
+    assert (scen["cases"], scen["passed"], scen["end_reasons"]) == (2, 2, {"completed": 2})
+    assert set(scen["worst"]) == {"stays on the ground", "level"}
+    assert scen["timing_median"]["rtf"] > 0
+    assert (run.dir / "campaign.toml").read_text() == (DATA / "two-seeds.toml").read_text()
+    assert not (run.dir / "STOP").exists()
+    assert not (run.dir / "cases").exists() or not any((run.dir / "cases").iterdir())  # passed: nothing left
+    assert run.passed
+    return lines
+
+
+def test_two_cases_through_the_process_pool(tmp_path: Path) -> None:
+    campaign = load_campaign(DATA / "two-seeds.toml")
+    run = run_campaign(campaign, executor="process", out_dir=tmp_path, console=_quiet())
+    assert run.summary["executor"] == "process pool x2"
+    for r in _check_two_seed_run(run):
+        log = Path(r["log"])  # keep_logs = "all"
+        assert log.parent == run.dir / "logs" and log.exists()
+        assert read_metadata(log)["run"]["seed"] == str(r["seed"])
+        # the override reached the flight code's config through the recorded scenario
+        scenario = read_attachments(log)["hover-2s.toml"][1].decode()
+        assert "read_timeout_s = 0.3" in scenario
+
+
+def test_two_cases_through_a_dask_local_cluster(tmp_path: Path) -> None:
+    pytest.importorskip("distributed")
+    campaign = load_campaign(DATA / "two-seeds.toml")
+    run = run_campaign(campaign, executor="dask", out_dir=tmp_path, keep_logs=KeepLogs.NONE, console=_quiet())
+    assert run.summary["executor"] == "dask LocalCluster x2"
+    for r in _check_two_seed_run(run):
+        assert r["log"] is None
+    assert not list((run.dir / "logs").glob("*.mcap*"))
+
+
+def test_a_case_whose_process_is_killed_is_a_failure_not_a_crashed_campaign(tmp_path: Path) -> None:
+    path = _campaign_file(tmp_path, f'rig = "{DATA / "killer-rig.toml"}"\nseeds = [1, 2]\nworkers = 1\n')
+    run = run_campaign(load_campaign(path), executor="process", out_dir=tmp_path, console=_quiet())
+    lines = _jsonl(run)
+    assert len(lines) == 2
+    for r in lines:
+        assert not r["passed"] and r["end_reason"] == "case crashed", r
+        assert r["returncode"] == -signal.SIGKILL and "signal 9" in r["message"]
+        assert r["log"].endswith(".mcap.part")  # the bench never finalized it; hil recover can
+        assert (Path(r["case_dir"]) / "output.txt").exists()
+    assert (run.summary["failed"], run.summary["passed"], run.summary["interrupted"]) == (2, 0, False)
+    assert sorted(run.summary["failed_cases"]) == ["0000", "0001"]
+    assert not run.passed
+
+
+def test_a_dead_worker_fails_only_its_own_case(tmp_path: Path) -> None:
+    path = _campaign_file(tmp_path, f"seeds = [1, {fake.DIE_SEED}, 3]\nworkers = 2\n")
+    run = run_campaign(load_campaign(path), executor="process", out_dir=tmp_path, console=_quiet(),
+                       case_fn=fake.die_on_seed_13)
+    by_seed = {r["seed"]: r for r in _jsonl(run)}
+    assert set(by_seed) == {1, fake.DIE_SEED, 3}
+    assert by_seed[1]["passed"] and by_seed[3]["passed"]
+    assert by_seed[fake.DIE_SEED]["end_reason"] == "worker died"
+    assert run.summary["failed_cases"] == ["0001"]
+    assert run.summary["by_scenario"]["hover-2s"]["worst"]["c"] == {"value": 3.0, "bound": "<= 100", "passed": True,
+                                                                    "case_id": "0002"}
+
+
+def _wait_for(path_glob: tuple[Path, str], timeout_s: float = 60.0) -> None:
+    """Poll the file system (the second case's log appearing), bounded."""
+    directory, pattern = path_glob
+    seen = threading.Event()
+    for _ in range(int(timeout_s / 0.05)):
+        if directory.exists() and list(directory.glob(pattern)):
+            return
+        seen.wait(0.05)
+    raise AssertionError(f"no {pattern} in {directory}")
+
+
+def test_ctrl_c_stops_the_running_case_cancels_the_rest_and_still_writes_the_results(tmp_path: Path) -> None:
+    path = _campaign_file(tmp_path, 'seeds = [1, 2, 3]\nworkers = 1\nkeep_logs = "failed"\n')
+
+    def interrupt_once_seed_2_flies(result: dict[str, Any]) -> None:
+        if result["seed"] == 1:
+            run_dirs = list(tmp_path.glob("t-*"))
+            _wait_for((run_dirs[0] / "logs", "0001_*.mcap.part"))
+            os.kill(os.getpid(), signal.SIGINT)  # what Ctrl-C in the terminal does to the campaign
+
+    run = run_campaign(load_campaign(path), executor="process", out_dir=tmp_path, console=_quiet(),
+                       on_result=interrupt_once_seed_2_flies, case_fn=fake.first_fake_then_real)
+    s = json.loads((run.dir / "summary.json").read_text())
+    assert s["interrupted"] and s["cases"] == 3
+    lines = _jsonl(run)
+    assert [r["seed"] for r in lines[:2]] == [1, 2]
+    assert lines[0]["passed"]
+    stopped = lines[1]
+    assert stopped["end_reason"] == "interrupted" and not stopped["passed"], stopped
+    assert read_metadata(stopped["log"])["verdict"]["end_reason"] == "interrupted"  # finalized, not .part
+    # Seed 3 never flies: cancelled in the executor's queue, or (already handed to the worker)
+    # refused by run_case because the stop flag was up.
+    assert [(r["seed"], r["end_reason"], r["log"]) for r in lines[2:]] in ([], [(3, "cancelled", None)])
+    assert (s["passed"], s["failed"], s["stopped"] + s["cancelled"]) == (1, 0, 2)
+    assert s["done"] == len(lines) and s["done"] + s["cancelled"] == 3
+    assert not (run.dir / "STOP").exists()
+    assert not run.passed
