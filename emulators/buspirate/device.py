@@ -2,7 +2,11 @@
 
 The firmware reads its UART one byte at a time, so does this model: commands may arrive
 pipelined in one write or split across writes; a multi-byte command keeps a continuation
-(``_cont``) that eats the following bytes. Replies go out as the firmware sends them: the
+(``_cont``) that eats the following bytes, and a bulk transfer counts the data bytes it
+still expects (``_bulk_left``). The data bytes of a bulk transfer that arrive together go
+to the MCP3204 in one ``exchange`` (the same edges at the same sim time as one byte at a
+time); ``BusPirate(..., fast_path=False)`` feeds every byte on its own, the reference this
+is tested against (tests/unit/adc/test_fastpath_equivalence.py). Replies go out as the firmware sends them: the
 0x01 of a bulk transfer at once, each MISO byte as its MOSI byte arrives; write-then-read
 answers only after all its write bytes (and 0x00 at once if a length is out of range, after
 which the firmware reads the would-be data bytes as commands, as here).
@@ -47,6 +51,11 @@ from emulators.buspirate.pins import Pins
 from emulators.buspirate.terminal import Terminal
 from emulators.mcp3204 import Mcp3204
 
+_OK_BYTE = bytes([OK])
+_SPI = Mode.SPI
+_LAST_BULK = (SpiGroup.BULK << 4) | 0x0F
+_ERROR_BYTE = bytes([ERROR])
+_MCP_PREFIX = "mcp3204_"
 
 @dataclass(frozen=True)
 class BusPirateModeChanged(DeviceEvent):
@@ -80,10 +89,12 @@ class BusPirate(ByteDevice):
 
     name = "adc"
 
-    def __init__(self, params: BusPirateParams, adc: Mcp3204) -> None:
+    def __init__(self, params: BusPirateParams, adc: Mcp3204, *, fast_path: bool = True) -> None:
         super().__init__()
         self.params = params
         self.adc = adc
+        #: False: every received byte is handled on its own (the reference for batching).
+        self.fast_path = fast_path
         self.terminal = Terminal(params)
         self.mode = Mode.TERMINAL
         self._fw = _firmware_version(params.firmware)
@@ -91,6 +102,10 @@ class BusPirate(ByteDevice):
         self._args = bytearray()
         self._need = 0
         self._spi_log: tuple[bytearray, bytearray] | None = None
+        self._bulk_left = 0  # data bytes the current bulk transfer still expects
+        self._adc_keys: dict[str, str] = {}  # MCP3204 counter -> its name under this port
+        table = SPI_CON1_V62 if self._fw >= (6, 2) else SPI_CON1_V61
+        self._sck_Hz_by_code = tuple(con1_sck_Hz(con1) for con1 in table)
         self._other_version = b""
         self._stream_t0_ns = 0
         self._stream_sent = 0
@@ -105,14 +120,31 @@ class BusPirate(ByteDevice):
             self.counters["bytes_at_wrong_baud"] += len(data)
             return
         self.counters["bytes_rx"] += len(data)
-        for byte in data:
+        i, n = 0, len(data)
+        while i < n:
+            left = self._bulk_left
+            if left:  # bulk data: every byte of it that arrived together, or just one
+                chunk = data[i : i + left] if self.fast_path else data[i : i + 1]
+                i += len(chunk)
+                self._bulk_data(chunk, t_ns)
+                continue
+            byte = data[i]
+            i += 1
             if self._cont is not None:
                 self._cont(byte, t_ns)
+            elif self.mode is _SPI and self.fast_path and byte <= _LAST_BULK:
+                self._spi_transaction_byte(byte, t_ns)
             else:
                 self._dispatch(byte, t_ns)
-        self._events.extend(self.adc.take_events())
+        events = self.adc.take_events()
+        if events:
+            self._events.extend(events)
+        counters, names = self.counters, self._adc_keys
         for key, value in self.adc.counters.items():  # the part's counters, under this port
-            self.counters["mcp3204_" + key] = value
+            name = names.get(key)
+            if name is None:
+                name = names[key] = _MCP_PREFIX + key
+            counters[name] = value
 
     def advance(self, t_ns: int) -> None:
         if self.mode is Mode.ADC_STREAM:  # two bytes per reading, as fast as the UART goes
@@ -236,7 +268,7 @@ class BusPirate(ByteDevice):
     def _reset_spi(self) -> None:
         """binSPI() defaults: 125 kHz (code 1), CKP 0, CKE 1, SMP 0, HiZ outputs, CS high."""
         self._speed = 1
-        self._config = SpiConfigBit.CKE  # 0010: HiZ, idle low, active-to-idle, middle
+        self._config: int = SpiConfigBit.CKE  # 0010: HiZ, idle low, active-to-idle, middle
         self._cs_latch = 1
         self._periph = 0
 
@@ -247,8 +279,8 @@ class BusPirate(ByteDevice):
 
     @property
     def sck_Hz(self) -> float:
-        table = SPI_CON1_V62 if self._fw >= (6, 2) else SPI_CON1_V61
-        return con1_sck_Hz(table[self._speed])
+        """SCK of the current speed code (the firmware version selects the divider table)."""
+        return self._sck_Hz_by_code[self._speed]
 
     def _lines_driven(self) -> bool:
         return bool(self._config & SpiConfigBit.PUSH_PULL) or self.pins.pulled_up
@@ -267,17 +299,17 @@ class BusPirate(ByteDevice):
         if not self._lines_driven():
             self.counters["spi_bytes_lines_undriven"] += len(mosi)
             return bytes(len(mosi))
-        miso = self.adc.exchange(mosi, t_ns, self.spi_mode, hiz_bit=int(self.pins.pullups), f_sck_Hz=self.sck_Hz)
-        return miso
+        return self.adc.exchange(mosi, t_ns, spi_mode_number(self._config), hiz_bit=int(self.pins.pullups),
+                                 f_sck_Hz=self._sck_Hz_by_code[self._speed])
 
     def _spi(self, byte: int, t_ns: int) -> None:
         group = byte >> 4
         if group == SpiGroup.SETUP:
             self._spi_setup(byte, t_ns)
         elif group == SpiGroup.BULK:
-            self._send(bytes([OK]))
+            self._out += _OK_BYTE
             self._spi_log = (bytearray(), bytearray())
-            self._bulk(byte & 0x0F)
+            self._bulk_left = (byte & 0x0F) + 1
         elif group == SpiGroup.PERIPHERALS:
             self._periph = byte & 0x0F
             self.pins.power = bool(byte & PeripheralBit.POWER)
@@ -300,6 +332,20 @@ class BusPirate(ByteDevice):
             self._send(bytes([ERROR]))
             self._error(t_ns, "unknown_spi_command", byte)
 
+    def _spi_transaction_byte(self, byte: int, t_ns: int) -> None:
+        """The SPI commands of a transaction (00..1F: setup, CS, bulk), fewer calls deep
+        than :meth:`_spi`: same effect."""
+        if byte == SpiCmd.CS_LOW or byte == SpiCmd.CS_HIGH:
+            self._cs_latch = byte & 1  # 02 -> 0 (low), 03 -> 1 (high)
+            self._apply_lines(t_ns)
+            self._out += _OK_BYTE
+        elif byte >> 4 == SpiGroup.BULK:
+            self._out += _OK_BYTE
+            self._spi_log = (bytearray(), bytearray())
+            self._bulk_left = (byte & 0x0F) + 1
+        else:
+            self._spi_setup(byte, t_ns)
+
     def _spi_setup(self, byte: int, t_ns: int) -> None:
         if byte == SpiCmd.EXIT:
             self.pins.reset()
@@ -320,22 +366,19 @@ class BusPirate(ByteDevice):
             self._send(bytes([ERROR]))
             self._error(t_ns, "unknown_spi_command", byte)
 
-    def _bulk(self, remaining: int) -> None:
-        def cont(byte: int, t_ns: int) -> None:
-            nonlocal remaining
-            miso = self._xfer(bytes([byte]), t_ns)
-            self._send(miso)
-            assert self._spi_log is not None
-            self._spi_log[0].append(byte)
-            self._spi_log[1].extend(miso)
-            if remaining == 0:
-                self._cont = None
-                self.counters["bulk_transfers"] += 1
-                self._event(BusPirateSpi(t_ns, bytes(self._spi_log[0]), bytes(self._spi_log[1])))
-                self._spi_log = None
-            remaining -= 1
-
-        self._cont = cont
+    def _bulk_data(self, mosi: bytes, t_ns: int) -> None:
+        """Data bytes of the current bulk transfer (one MISO byte answers each)."""
+        miso = self._xfer(mosi, t_ns)
+        self._out += miso
+        log = self._spi_log
+        assert log is not None
+        log[0].extend(mosi)
+        log[1].extend(miso)
+        self._bulk_left -= len(mosi)
+        if not self._bulk_left:
+            self.counters["bulk_transfers"] += 1
+            self._event(BusPirateSpi(t_ns, bytes(log[0]), bytes(log[1])))
+            self._spi_log = None
 
     def _wtr_lengths(self, cmd: int, args: bytes, t_ns: int) -> None:
         n_write = args[0] << 8 | args[1]

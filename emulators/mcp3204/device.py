@@ -14,6 +14,12 @@ shifted by one bit, as a real part does.
 
 The analog input is sampled at the end of the sample phase by calling
 ``sampler(channel, t_ns)`` (volts at that input pin) with the ``t_ns`` of the transaction.
+
+Speed: ``exchange`` in mode 0,0 or 1,1 with CS low (what every driver does) takes whole
+bytes at once from the tables of bytelevel.py; everything else (the wrong-phase modes, bytes
+while CS is high or before the power-up CS high, raw pins) plays the edges one by one.
+``Mcp3204(..., fast_path=False)`` plays edges for every byte: the reference the byte path is
+tested against (tests/unit/adc/test_fastpath_equivalence.py).
 """
 
 from __future__ import annotations
@@ -23,20 +29,31 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from emulators.base import DeviceEvent
+from emulators.mcp3204.bytelevel import (
+    COMMAND_STEPS,
+    OUTPUT_SEQUENCE_BITS,
+    output_bits_cached,
+    output_word,
+)
 from emulators.mcp3204.defs import (
     B0_INDEX,
     DIFF_PAIRS,
+    N_CHANNELS,
     RISING_NEXT,
-    SUPPORTED_SPI_MODES,
     Phase,
-    SpiMode,
-    output_bits,
 )
 from emulators.mcp3204.params import Mcp3204Params
 from emulators.mcp3204.transfer import quantize
 
 #: sampler(channel 0..3, t_ns) -> volts at that input pin
 Sampler = Callable[[int, int], float]
+
+_OUTPUT = Phase.OUTPUT
+_POWER_UP_CS_LOW = Phase.POWER_UP_CS_LOW
+_WAIT_START = Phase.WAIT_START
+#: Counter names per channel, single-ended and pseudo-differential (IN+).
+_CODE_KEYS = {True: tuple(f"codes_ch{ch}" for ch in range(N_CHANNELS)),
+              False: tuple(f"codes_diff_ch{ch}" for ch in range(N_CHANNELS))}
 
 
 @dataclass(frozen=True)
@@ -64,8 +81,10 @@ class Mcp3204ProtocolError(DeviceEvent):
 class Mcp3204:
     """One MCP3204. ``vref_V`` may be changed at run time (fault: reference drift)."""
 
-    def __init__(self, params: Mcp3204Params, sampler: Sampler) -> None:
+    def __init__(self, params: Mcp3204Params, sampler: Sampler, *, fast_path: bool = True) -> None:
         self.params = params
+        #: False: play every SCK edge of every byte (the reference for the byte-level path).
+        self.fast_path = fast_path
         self.vref_V: float = params.vref_V
         self.counters: Counter[str] = Counter()
         self._sampler = sampler
@@ -78,7 +97,8 @@ class Mcp3204:
         self._t_ns = 0
         self._sgl = 1
         self._d = 0  # D2 D1 D0 as latched
-        self._out: tuple[int, ...] = ()
+        self._out: tuple[int, ...] = ()  # DOUT bits after the sample (defs.output_bits)
+        self._word = 0  # the same bits packed (bytelevel.output_word)
         self._pos = 0
         self._conv: Mcp3204Conversion | None = None
         self._frame_flagged = False
@@ -131,38 +151,33 @@ class Mcp3204:
         1 with a pull-up). ``f_sck_Hz`` (optional) is only checked against the part's
         limit and counted.
         """
+        counters = self.counters
+        n = len(mosi)
         if not 0 <= mode <= 3:
-            self.counters["bad_spi_mode_arg"] += 1
+            counters["bad_spi_mode_arg"] += 1
             mode &= 3
-        if SpiMode(mode) not in SUPPORTED_SPI_MODES:
-            self.counters["wrong_phase_spi_bytes"] += len(mosi)
+        if mode == 1 or mode == 2:  # DS21298E §6.1 supports modes 0,0 and 1,1 only
+            counters["wrong_phase_spi_bytes"] += n
         if f_sck_Hz is not None and f_sck_Hz > self.params.f_sck_max_Hz:
-            self.counters["sck_over_spec_bytes"] += len(mosi)
+            counters["sck_over_spec_bytes"] += n
         if not self._cs_low:
-            self.counters["bytes_while_deselected"] += len(mosi)
-        self.counters["spi_bytes"] += len(mosi)
-        cpol, cpha = mode >> 1, mode & 1
+            counters["bytes_while_deselected"] += n
+        counters["spi_bytes"] += n
+        cpol = mode >> 1
         if self._sck != cpol:  # the master's clock returns to this mode's idle level
             self._edge(t_ns)
+        if self.fast_path and (mode == 0 or mode == 3) and self._cs_low and self._phase is not _POWER_UP_CS_LOW:
+            return self._exchange_bytes(mosi, t_ns, cpol, hiz_bit)
+        return self._exchange_edges(mosi, t_ns, mode & 1, hiz_bit)
+
+    def _exchange_edges(self, mosi: bytes, t_ns: int, cpha: int, hiz_bit: int) -> bytes:
+        """The reference path: every SCK edge of every bit, in the order of SPI mode cpha."""
         out = bytearray()
         for byte in mosi:
-            if self._phase is Phase.OUTPUT and cpha == cpol and self._cs_low:
-                out.append(self._output_byte(byte, cpol, t_ns))
-                continue
             value = 0
-            matched = cpha == cpol and self._cs_low and self._phase is not Phase.POWER_UP_CS_LOW
             for i in range(7, -1, -1):
                 bit = (byte >> i) & 1
-                if matched:  # a whole clock of mode 0,0 or 1,1 without the edge dispatch
-                    self._t_ns = t_ns
-                    if cpol:
-                        self._falling(t_ns)
-                    self._din = bit
-                    sample = hiz_bit if self._dout is None else self._dout
-                    self._rising(t_ns)
-                    if not cpol:
-                        self._falling(t_ns)
-                elif cpha == 0:
+                if cpha == 0:
                     self._din = bit  # data set up before the leading edge
                     sample = self._miso(hiz_bit)  # master samples on the leading edge
                     self._edge(t_ns)
@@ -174,6 +189,34 @@ class Mcp3204:
                     self._edge(t_ns)
                 value = (value << 1) | sample
             out.append(value)
+        return bytes(out)
+
+    def _exchange_bytes(self, mosi: bytes, t_ns: int, cpol: int, hiz_bit: int) -> bytes:
+        """Whole bytes in mode 0,0 (cpol 0) or 1,1 (cpol 1) with CS low: same bits, events,
+        counters and sampler calls as :meth:`_exchange_edges`, a table lookup per byte."""
+        steps = COMMAND_STEPS[cpol]
+        hiz = 0xFF if hiz_bit else 0x00
+        out = bytearray()
+        for byte in mosi:
+            phase = self._phase
+            if phase is _OUTPUT:
+                out.append(self._output_byte(byte, cpol, t_ns))
+                continue
+            new_phase, sgl, d_count, d_bits, sampled, k = steps[phase][byte]
+            if sgl >= 0:
+                self._sgl = sgl
+            if d_count:
+                self._d = ((self._d << d_count) | d_bits) & 0b111
+            if sampled:  # the latches above all precede the sampling edge
+                self._sample(t_ns)
+                self._pos = pos = k - cpol
+                self._dout = (self._word >> (OUTPUT_SEQUENCE_BITS - 1 - pos)) & 1
+                out.append((hiz & (0xFF << k) & 0xFF) | (self._word >> (OUTPUT_SEQUENCE_BITS - k)))
+            else:
+                out.append(hiz)  # DOUT is hi-Z until the sample
+            self._phase = new_phase
+            self._din = byte & 1
+            self._t_ns = t_ns
         return bytes(out)
 
     def set_sck(self, level: int, t_ns: int) -> None:
@@ -198,25 +241,25 @@ class Mcp3204:
     def _output_byte(self, byte: int, cpol: int, t_ns: int) -> int:
         """Eight clocks of the OUTPUT phase in mode 0,0 or 1,1, without simulating edges.
 
-        Same result as the edge path: mode 0 samples before each falling edge (out[pos]),
-        mode 3 after it (out[pos + 1]); DOUT advances one bit per clock either way.
+        Mode 0 samples before each falling edge (bits pos..pos+7 of the sequence), mode 3
+        after it (pos+1..pos+8); DOUT advances one bit per clock either way. In edge order,
+        the falling edge that reaches B0 (completing the conversion) comes before every
+        rising edge that checks DIN past B0.
         """
-        out, pos = self._out, self._pos
+        pos = self._pos
         first = pos + cpol
-        bits = out[first : first + 8]
-        value = 0
-        for bit in bits:
-            value = (value << 1) | bit
-        value <<= 8 - len(bits)  # past the LSB-first copy: zeros
-        if not self._frame_flagged and pos + cpol + 7 >= B0_INDEX:
-            for i in range(8):  # the edge path's check at each rising edge (pos at that edge)
-                self._din_after_b0(pos + cpol + i, (byte >> (7 - i)) & 1, t_ns)
-        self._pos = pos + 8
-        self._dout = out[self._pos] if self._pos < len(out) else 0
+        word = self._word
+        value = ((word << 8) >> (24 - first)) & 0xFF if first <= 24 else 0  # zeros past the sequence
+        end = pos + 8
+        if pos < B0_INDEX <= end and self._conv is not None:
+            self._complete(t_ns)
+        if not self._frame_flagged and first + 7 >= B0_INDEX:
+            for i in range(max(0, B0_INDEX - first), 8):  # the rising edges at or past B0
+                self._din_after_b0(first + i, (byte >> (7 - i)) & 1, t_ns)
+        self._pos = end
+        self._dout = (word >> (OUTPUT_SEQUENCE_BITS - 1 - end)) & 1 if end < OUTPUT_SEQUENCE_BITS else 0
         self._din = byte & 1
         self._t_ns = t_ns
-        if pos < B0_INDEX <= self._pos and self._conv is not None:
-            self._complete(t_ns)
         return value
 
     def _din_after_b0(self, pos: int, din: int, t_ns: int) -> None:
@@ -248,8 +291,9 @@ class Mcp3204:
             return
         if not self._cs_low:
             return
-        if self._phase in RISING_NEXT or self._phase is Phase.HOLD or self._conv is not None:
-            self.counters["aborted_conversions"] += 1
+        phase = self._phase
+        if self._conv is not None or not (phase is _OUTPUT or phase is _WAIT_START or phase is _POWER_UP_CS_LOW):
+            self.counters["aborted_conversions"] += 1  # in RISING_NEXT, HOLD, or B0 not yet out
         self._cs_low = False
         self._phase = Phase.IDLE
         self._dout = None
@@ -315,7 +359,8 @@ class Mcp3204:
         if not 0.25 <= vref <= self.params.vdd_V:
             self.counters["vref_out_of_spec"] += 1
         code = quantize(vin, vref, self.params.offset_error_lsb, self.params.gain_error_lsb)
-        self._out = output_bits(code)
+        self._out = output_bits_cached(code)
+        self._word = output_word(code)
         self._conv = Mcp3204Conversion(t_ns, channel, single, code, vin, vref)
 
     def _complete(self, t_ns: int) -> None:
@@ -323,8 +368,7 @@ class Mcp3204:
         assert conv is not None
         self._conv = None
         self.counters["conversions"] += 1
-        key = f"codes_ch{conv.channel}" if conv.single_ended else f"codes_diff_ch{conv.channel}"
-        self.counters[key] += 1
+        self.counters[_CODE_KEYS[conv.single_ended][conv.channel]] += 1
         self._events.append(conv)
 
     def _error(self, t_ns: int, what: str) -> None:
