@@ -48,6 +48,8 @@ def run(
     out: Annotated[Path, typer.Option(help="Directory for the MCAP log.")] = Path("logs"),
     no_record: Annotated[bool, typer.Option("--no-record", help="Do not write an MCAP file.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    stress_cpu: Annotated[int, typer.Option(help="Timing stress: CPU-bound processes beside the flight code.")] = 0,
+    stress_adc_delay_us: Annotated[float, typer.Option(help="Timing stress: hold every ADC bridge reply back (wall us).")] = 0.0,
 ) -> None:
     """Fly the flight code against the emulated vehicle and write one MCAP log."""
     from hil.bench import Mode
@@ -116,6 +118,8 @@ def run(
                 record=not no_record,
                 progress=on_progress,
                 scenario_source=source,
+                stress_cpu=stress_cpu,
+                stress_adc_delay_us=stress_adc_delay_us,
             )
         finally:
             loop.remove_signal_handler(signal.SIGINT)

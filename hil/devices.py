@@ -116,6 +116,8 @@ class DeviceSet:
         #: ``poll(t_ns) -> bytes`` releases bytes held back (delay/jitter).
         self.wire_filters: dict[str, list[WireFilter]] = {}
         self.latency: list[LatencySample] = []
+        #: timing stress: hold every ADC bridge reply back this long (wall ns; hil/stress.py)
+        self.adc_reply_delay_ns = 0
         #: PPM frames generated since the run logger last took them (PpmFrame records)
         self.rc_frames: list[object] = []
 
@@ -146,6 +148,8 @@ class DeviceSet:
             device.receive(data, t_ns)
             out = device.take_output()
             if out:
+                if is_adc and self.adc_reply_delay_ns:
+                    clock.sleep_until_ns(clock.monotonic_ns() + self.adc_reply_delay_ns)  # timing stress
                 self.write(name, out)
             events = device.take_events()
             if is_adc:

@@ -37,6 +37,7 @@ from hil.rig import Rig, load_rig
 from hil.runlog import RunLogger
 from hil.scenario import Scenario, load_scenario
 from hil.scenario_runner import ScenarioRunner
+from hil.stress import CpuHog
 from hil.trace import Trace
 from hil.transport.pty import PtyPort
 
@@ -96,7 +97,7 @@ def write_flight_config(rig: Rig, scenario: Scenario, ports: dict[str, PtyPort],
     return path
 
 
-def _timing_summary(loop: TickLoop, tick_ns: int) -> dict[str, float]:
+def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None) -> dict[str, float]:
     st = loop.stats
     wall_s = max((st.wall_end_ns - st.wall_start_ns) / 1e9, 1e-9)
     sim_s = st.ticks * tick_ns / 1e9
@@ -119,6 +120,22 @@ def _timing_summary(loop: TickLoop, tick_ns: int) -> dict[str, float]:
     if st.tick_cost_ns:
         cost = np.asarray(st.tick_cost_ns) / 1e3
         out |= {"bench_cost_p50_us": float(np.percentile(cost, 50)), "bench_cost_p99_us": float(np.percentile(cost, 99))}
+    arrivals = np.asarray([s.t_arrival_host_ns for s in loop.devices.latency if s.t_arrival_host_ns is not None])
+    if arrivals.size > 2:
+        period = np.diff(arrivals) / 1e3
+        jitter = np.abs(period - tick_ns / 1e3)
+        out |= {
+            "period_p50_us": float(np.percentile(period, 50)),
+            "period_jitter_p99_us": float(np.percentile(jitter, 99)),
+        }
+    if trace is not None:
+        try:
+            _, compute = trace.signal("tm.compute_last_us")
+        except KeyError:
+            compute = np.zeros(0)
+        compute = compute[np.isfinite(compute)]
+        if compute.size:
+            out |= {"fc_compute_p50_us": float(np.percentile(compute, 50)), "fc_compute_p99_us": float(np.percentile(compute, 99))}
     if st.lateness_ns:
         late = np.asarray(st.lateness_ns) / 1e3
         out |= {
@@ -151,6 +168,8 @@ async def run_flight_async(
     keep_run_dir: bool = False,
     on_ready: Callable[[TickLoop, DeviceSet, ScenarioRunner], None] | None = None,
     scenario_source: Path | None = None,
+    stress_cpu: int = 0,
+    stress_adc_delay_us: float = 0.0,
 ) -> RunResult:
     """Run one flight (see module docstring). Never raises for run-time failures."""
     # The recorder's writer thread must not hold the GIL for the default 5 ms while the
@@ -165,6 +184,7 @@ async def run_flight_async(
 
     runner = ScenarioRunner(scenario, rig, scenario_source)
     devices = DeviceSet(rig, seed=seed, stick_script=runner.stick_script())
+    devices.adc_reply_delay_ns = int(stress_adc_delay_us * 1000)
     runner.bind(devices)
     ports = {name: PtyPort(name, dev_dir) for name in PORTS}
     for port in ports.values():
@@ -218,7 +238,9 @@ async def run_flight_async(
 
     end = EndReason.ERROR
     message = ""
+    hog = CpuHog(stress_cpu)
     try:
+        hog.__enter__()
         await flight.start()
         try:
             await loop.boot()
@@ -235,6 +257,7 @@ async def run_flight_async(
         end, message = EndReason.ERROR, f"bench error: {type(exc).__name__}: {exc}"
         logger.event(max(loop.t_ns, 0), "run", "bench error", {"error": repr(exc)})
     finally:
+        hog.__exit__(None, None, None)
         runner.finish(max(loop.t_ns, 0))
         await runner.aclose()
         returncode = await flight.stop()
@@ -242,7 +265,7 @@ async def run_flight_async(
             await asyncio.sleep(0)  # let the last stderr lines reach the logger
         for port in ports.values():
             port.close()
-        timing = _timing_summary(loop, rig.tick_ns)
+        timing = _timing_summary(loop, rig.tick_ns, trace)
         criteria = evaluate(scenario.criteria, trace) if end is EndReason.COMPLETED else []
         timing_criteria = runner.timing_criteria(timing, logger)
         criteria += timing_criteria

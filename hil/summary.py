@@ -46,6 +46,7 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
     timing.add_column("value")
     for key in (
         "rtf", "ticks", "barrier_misses", "latency_p50_us", "latency_p99_us", "latency_max_us",
+        "fc_compute_p50_us", "fc_compute_p99_us", "period_p50_us", "period_jitter_p99_us",
         "bench_cost_p50_us", "bench_cost_p99_us", "lateness_p50_us", "lateness_p99_us", "lateness_max_us",
         "late_ticks",
     ):
