@@ -145,6 +145,7 @@ class FlightLoop:
         self.descent = _Descent(cfg.failsafe.descend_mps)
         self.window = ComputeWindow()
         self._rc_loss_ns = int(cfg.failsafe.rc_loss_s * 1e9)
+        self._imu_timeout_ns = int(cfg.failsafe.imu_timeout_s * 1e9)
         self._tel_slot_ns = self.period_ns * cfg.telemetry.divider
         self._stats_ns = int(cfg.log.stats_period_s * 1e9)
         rc = cfg.rc
@@ -257,7 +258,8 @@ class FlightLoop:
         cfg, dev = self.cfg, self.dev
         t_ns = sample.t_ns
         self.log.t_ns = t_ns
-        dt_s = self.cfg.T_s if self._t_prev_ns is None else (t_ns - self._t_prev_ns) * 1e-9
+        gap_ns = self.period_ns if self._t_prev_ns is None else t_ns - self._t_prev_ns
+        dt_s = gap_ns * 1e-9
         self._t_prev_ns = t_ns
         if sample.skipped:
             self._skipped_in_window = True
@@ -319,7 +321,8 @@ class FlightLoop:
         failsafe = modes.mode is Mode.FAILSAFE_RC
         z_ref = self.descent.step(dt_s) if failsafe else z_stick
         mode = modes.update(t_ns, baro_ready=self.baro_ref.ready, rc_valid=rc_valid, throttle_us=thr_us,
-                            yaw_us=yaw_us, z_ref_m=z_ref, z_hat_m=z_hat, vz_hat_mps=vz_hat)
+                            yaw_us=yaw_us, z_ref_m=z_ref, z_hat_m=z_hat, vz_hat_mps=vz_hat,
+                            imu_continuous=gap_ns <= self._imu_timeout_ns)
         if modes.transitions:
             if mode is Mode.FAILSAFE_RC and not failsafe:
                 self.descent.start(min(self._z_ref_m, z_hat))

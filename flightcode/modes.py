@@ -16,11 +16,16 @@ TAKEOFF                 altitude setpoint > takeoff threshold
 LANDED                  setpoint <= threshold, |z| and |vz| small for ``landed_s``
 IDLE_TIMEOUT            armed on the ground for ``auto_disarm_s``
 RC_LOST                 no good RC frame for ``failsafe.rc_loss_s`` (judged by the loop)
-IMU_LOST / IMU_BACK     IMU read timed out / a sample arrived again
+IMU_LOST                the IMU read timed out (``failsafe.imu_timeout_s`` of wall clock)
+IMU_RESUMED             a sample arrived again and it follows the last one processed by
+                        no more than the watchdog time of *sensor* time: the sensor kept
+                        sampling, only the delivery stalled (a loaded lockstep bench, where
+                        sim time stands still meanwhile): back to the interrupted mode
+IMU_BACK                a sample arrived again after a real gap: disarmed, re-arm to fly
 ======================  ===========================================================
 
 Motors per mode (:data:`MOTORS`): minimum pulse (the ESCs' arming level) in BOOT, DISARMED
-and FAILSAFE_IMU; idle pulse when ARMED on the ground; the controllers in FLYING and
+and FAILSAFE_IMU (so a delivery stall costs the samples it lasts, never the flight); idle pulse when ARMED on the ground; the controllers in FLYING and
 FAILSAFE_RC (level, descend at ``failsafe.descend_mps``, then disarm on landing). The
 failsafe latches: RC coming back does not return control before the vehicle is disarmed.
 """
@@ -55,6 +60,7 @@ class ModeEvent(Enum):
     IDLE_TIMEOUT = "idle_timeout"
     RC_LOST = "rc_lost"
     IMU_LOST = "imu_lost"
+    IMU_RESUMED = "imu_resumed"
     IMU_BACK = "imu_back"
 
 
@@ -67,15 +73,18 @@ class MotorPolicy(Enum):
     CONTROL = "control"
 
 
+#: Target of IMU_RESUMED: the mode the IMU watchdog interrupted.
+RESUME = None
+
 E, M = ModeEvent, Mode
-TRANSITIONS: dict[Mode, dict[ModeEvent, Mode]] = {
+TRANSITIONS: dict[Mode, dict[ModeEvent, Mode | None]] = {
     M.BOOT: {E.BOOT_DONE: M.DISARMED},
     M.DISARMED: {E.ARM_GESTURE: M.ARMED, E.IMU_LOST: M.FAILSAFE_IMU},
     M.ARMED: {E.TAKEOFF: M.FLYING, E.DISARM_GESTURE: M.DISARMED, E.IDLE_TIMEOUT: M.DISARMED,
               E.RC_LOST: M.DISARMED, E.IMU_LOST: M.FAILSAFE_IMU},
     M.FLYING: {E.LANDED: M.ARMED, E.RC_LOST: M.FAILSAFE_RC, E.IMU_LOST: M.FAILSAFE_IMU},
     M.FAILSAFE_RC: {E.LANDED: M.DISARMED, E.IMU_LOST: M.FAILSAFE_IMU},
-    M.FAILSAFE_IMU: {E.IMU_BACK: M.DISARMED},
+    M.FAILSAFE_IMU: {E.IMU_BACK: M.DISARMED, E.IMU_RESUMED: RESUME},
 }
 MOTORS: dict[Mode, MotorPolicy] = {
     M.BOOT: MotorPolicy.MINIMUM,
@@ -169,6 +178,7 @@ class ModeMachine:
         self._landed = _Hold(_ns(params.landed_s))
         self._idle = _Hold(_ns(params.auto_disarm_s))
         self._t_ns = 0
+        self._interrupted = Mode.DISARMED  # the mode IMU_LOST left (IMU_RESUMED returns to it)
 
     @property
     def motors(self) -> MotorPolicy:
@@ -180,9 +190,14 @@ class ModeMachine:
         return MOTORS[self.mode] is MotorPolicy.CONTROL
 
     def _fire(self, event: ModeEvent, t_ns: int) -> bool:
-        new = TRANSITIONS[self.mode].get(event)
-        if new is None:
+        table = TRANSITIONS[self.mode]
+        if event not in table:
             return False
+        new = table[event]
+        if new is RESUME:
+            new = self._interrupted
+        elif new is Mode.FAILSAFE_IMU:
+            self._interrupted = self.mode
         self.transitions.append(Transition(t_ns, self.mode, new, event))
         self.mode = new
         for hold in (self._arm, self._disarm, self._landed, self._idle):
@@ -195,18 +210,20 @@ class ModeMachine:
         return self.mode
 
     def update(self, t_ns: int, *, baro_ready: bool, rc_valid: bool, throttle_us: float, yaw_us: float,
-               z_ref_m: float, z_hat_m: float, vz_hat_mps: float) -> Mode:
+               z_ref_m: float, z_hat_m: float, vz_hat_mps: float, imu_continuous: bool = False) -> Mode:
         """One sample at sensor time ``t_ns``; returns the (possibly new) mode.
 
         ``throttle_us``/``yaw_us`` are the latest stick pulses (ignored unless ``rc_valid``);
         ``z_ref_m`` the altitude setpoint in force (sticks, or the failsafe descent);
-        ``z_hat_m``/``vz_hat_mps`` the altitude estimate (z up).
+        ``z_hat_m``/``vz_hat_mps`` the altitude estimate (z up); ``imu_continuous``: this
+        sample follows the previous one processed by at most the watchdog time of sensor time
+        (matters only after an IMU timeout: IMU_RESUMED instead of IMU_BACK).
         """
         self._t_ns = t_ns
         p = self.params
         mode = self.mode
         if mode is Mode.FAILSAFE_IMU:
-            self._fire(ModeEvent.IMU_BACK, t_ns)
+            self._fire(ModeEvent.IMU_RESUMED if imu_continuous else ModeEvent.IMU_BACK, t_ns)
             return self.mode
         if mode is Mode.BOOT:
             if baro_ready:

@@ -426,6 +426,8 @@ class FakeWorld:
         self._thrust_N = [0.0] * 4  # with motor lag: the thrust each motor actually gives
         self.k = -1  # index of the last emitted tick
         self.imu_silent_ticks: set[int] = set()
+        #: lockstep delivery stalls: this many IMU reads find nothing while sim time stands still
+        self.imu_stalled_reads = 0
         self.trace: list[tuple[int, float, list[float], list[float]]] = []
         self.ports["imu"].on_starve = self._tick
 
@@ -487,8 +489,11 @@ class FakeWorld:
         return min(4095, max(0, int(math.floor(4096.0 * v_adc / 5.0))))
 
     def _tick(self) -> None:
-        """Advance to the next tick and emit its IMU sample (unless silenced)."""
+        """Advance to the next tick and emit its IMU sample (unless silenced or stalled)."""
         if not self.imu.measuring:
+            return
+        if self.imu_stalled_reads:
+            self.imu_stalled_reads -= 1
             return
         if self.k >= 0:
             self._step_plant(TICK_NS * 1e-9)

@@ -140,6 +140,24 @@ def test_imu_silence_sends_motors_to_minimum_then_disarms() -> None:
     assert loop.modes.mode is Mode.DISARMED and w.esc.pulses_us == [1000.0] * 4
 
 
+def test_late_imu_samples_in_lockstep_cost_no_flight() -> None:
+    # A loaded bench holds the next sample back past the watchdog while sim time stands still:
+    # the watchdog fires (motors to minimum), and the sample that then arrives is the next one.
+    loop, w, _ = run(pilot, 1200)
+    assert loop.modes.mode is Mode.FLYING
+    out = io.StringIO()
+    loop.log = Logger(out)
+    for i in range(5):  # five stalls, one or three timeouts long
+        w.imu_stalled_reads = 3 if i % 2 else 1
+        for _ in range(w.imu_stalled_reads):
+            assert loop.step() is None and w.esc.pulses_us == [1000.0] * 4
+        loop.run(max_iterations=100)
+    text = out.getvalue()
+    assert loop.counters["imu_timeouts"] == 9 and text.count("new=flying cause=imu_resumed") == 5
+    assert loop.modes.mode is Mode.FLYING and abs(w.plant.z_m - 2.0) < 0.3
+    assert "new=disarmed" not in text
+
+
 def test_adc_garbage_in_flight_resyncs_and_keeps_flying() -> None:
     loop, w, _ = run(pilot, 1000)
     w.adc.garbage_next = b"\x13\x37" * 12

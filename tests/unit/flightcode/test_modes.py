@@ -6,7 +6,7 @@ from hypothesis import settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, rule
 
-from flightcode.modes import MOTORS, TRANSITIONS, Mode, ModeEvent, ModeMachine, ModesParams, MotorPolicy
+from flightcode.modes import MOTORS, RESUME, TRANSITIONS, Mode, ModeEvent, ModeMachine, ModesParams, MotorPolicy
 
 TICK = 2_500_000
 S = 1_000_000_000
@@ -21,6 +21,7 @@ class Pilot:
         self.rc_valid = True
         self.throttle, self.yaw = 1000.0, 1500.0
         self.z_ref = self.z = self.vz = 0.0
+        self.imu_continuous = False
 
     def run(self, seconds: float, **inputs: float) -> Mode:
         for key, value in inputs.items():
@@ -28,7 +29,7 @@ class Pilot:
         end = self.t + int(seconds * S)
         while self.t < end:
             self.m.update(self.t, baro_ready=True, rc_valid=self.rc_valid, throttle_us=self.throttle, yaw_us=self.yaw,
-                          z_ref_m=self.z_ref, z_hat_m=self.z, vz_hat_mps=self.vz)
+                          z_ref_m=self.z_ref, z_hat_m=self.z, vz_hat_mps=self.vz, imu_continuous=self.imu_continuous)
             self.t += TICK
         return self.m.mode
 
@@ -125,6 +126,26 @@ def test_imu_loss_and_return() -> None:
     assert p.run(0.01) is Mode.DISARMED  # a sample again: disarmed, must re-arm
 
 
+def test_a_delivery_stall_of_the_imu_resumes_the_interrupted_mode() -> None:
+    # The samples around the timeout are consecutive in sensor time: the IMU never stopped,
+    # only its delivery did (a loaded lockstep bench). One timeout must not end the flight.
+    p = flying_pilot()
+    assert p.m.imu_lost() is Mode.FAILSAFE_IMU and p.m.motors is MotorPolicy.MINIMUM
+    assert p.m.imu_lost() is Mode.FAILSAFE_IMU  # several timeouts in a row
+    assert p.run(0.0025, imu_continuous=True) is Mode.FLYING
+    assert [(t.old, t.new, t.event) for t in p.m.transitions[-2:]] == [
+        (Mode.FLYING, Mode.FAILSAFE_IMU, ModeEvent.IMU_LOST), (Mode.FAILSAFE_IMU, Mode.FLYING, ModeEvent.IMU_RESUMED)]
+    assert p.run(0.01, rc_valid=False) is Mode.FAILSAFE_RC
+    p.m.imu_lost()
+    assert p.run(0.0025) is Mode.FAILSAFE_RC  # latched failsafe stays latched
+    p = armed_pilot()
+    p.m.imu_lost()
+    assert p.run(0.0025, imu_continuous=True) is Mode.ARMED
+    p.imu_continuous = False
+    p.m.imu_lost()
+    assert p.run(0.0025) is Mode.DISARMED  # a real gap: re-arm to fly
+
+
 def test_imu_loss_during_boot_keeps_booting() -> None:
     m = ModeMachine(ModesParams(), 0.5)
     assert m.imu_lost() is Mode.BOOT
@@ -144,6 +165,7 @@ class ModesMachine(RuleBasedStateMachine):
         self.t = 0
         self.arm_since: int | None = None  # the test's own view of the arm gesture
         self.seen = 0
+        self.interrupted = Mode.DISARMED
 
     def _update(self, **inputs: float) -> None:
         before = self.m.mode
@@ -187,11 +209,26 @@ class ModesMachine(RuleBasedStateMachine):
         before = self.m.mode
         self.m.imu_lost()
         assert self.m.mode is (Mode.BOOT if before is Mode.BOOT else Mode.FAILSAFE_IMU)
+        if before not in (Mode.BOOT, Mode.FAILSAFE_IMU):
+            self.interrupted = before
+
+    @rule(continuous=st.booleans())
+    def imu_sample_after_timeouts(self, continuous: bool) -> None:
+        before = self.m.mode
+        self.m.update(self.t, baro_ready=True, rc_valid=True, throttle_us=1500.0, yaw_us=1500.0, z_ref_m=5.0,
+                      z_hat_m=3.0, vz_hat_mps=0.0, imu_continuous=continuous)
+        self.t += TICK
+        if before is Mode.FAILSAFE_IMU:
+            assert self.m.mode is (self.interrupted if continuous else Mode.DISARMED)
 
     @invariant()
     def transitions_follow_the_table(self) -> None:
         for tr in self.m.transitions[self.seen :]:
-            assert TRANSITIONS[tr.old][tr.event] is tr.new
+            target = TRANSITIONS[tr.old][tr.event]
+            if target is RESUME:  # back to the mode the watchdog interrupted
+                assert tr.event is ModeEvent.IMU_RESUMED and tr.new is self.m.transitions[-2].old
+            else:
+                assert target is tr.new
         self.seen = len(self.m.transitions)
 
     @invariant()
