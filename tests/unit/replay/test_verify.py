@@ -57,7 +57,7 @@ def test_a_tampered_imu_byte_is_the_first_divergence(recorded: RunResult, tmp_pa
         if topic == "/hil/wire/imu/tx":
             data = msg["data"]
             if t_ns >= TAMPER_T_NS and not where:
-                where |= {"t_ns": t_ns, "offset": offset[0] + TAMPER_INDEX, "was": data[TAMPER_INDEX]}
+                where.update(t_ns=t_ns, offset=offset[0] + TAMPER_INDEX, was=data[TAMPER_INDEX])
                 data = data[:TAMPER_INDEX] + bytes([data[TAMPER_INDEX] ^ 0x10]) + data[TAMPER_INDEX + 1:]
                 msg = {**msg, "data": data}
             offset[0] += len(msg["data"])
