@@ -123,6 +123,7 @@ class _Watch:
 
 
 def _label_of(predicate: Callable[..., object]) -> str:
+    """A readable name for messages: the function's name, or a lambda's source text."""
     name = getattr(predicate, "__name__", repr(predicate))
     if name != "<lambda>":
         return name
@@ -130,8 +131,18 @@ def _label_of(predicate: Callable[..., object]) -> str:
         text = " ".join(inspect.getsource(predicate).split())
     except (OSError, TypeError):
         return name
-    m = re.search(r"lambda\b.*", text)
-    return (m.group(0) if m else text)[:120]
+    start = text.find("lambda")
+    depth, end = 0, len(text)
+    for i in range(start, len(text)):  # the lambda ends at a "," or ")" outside its brackets
+        c = text[i]
+        if c in "([{":
+            depth += 1
+        elif c in ")]}" and depth == 0 or c == "," and depth == 0:
+            end = i
+            break
+        elif c in ")]}":
+            depth -= 1
+    return text[start:end].strip()[:120] if start >= 0 else name
 
 
 class Bench:
@@ -192,11 +203,12 @@ class Bench:
         loop.before_tick, loop.after_tick = self._before_tick, self._after_tick
         devices.event_sinks.append(self._on_event)
         devices.ports["telemetry"].taps.append(self._on_telemetry_wire)
-        # Once hil/run.py plays the scenario's [[faults]] itself, its schedule is reused.
-        existing = [v for v in vars(runner).values() if isinstance(v, FaultSchedule)]
+        # The runner's schedule (it plays the scenario's [[faults]]) takes the test's faults
+        # too; a runner without one gets ours, fed the scenario's faults from before_tick.
+        existing = getattr(runner, "schedule", None)
         try:
-            if existing:
-                self.schedule = existing[0]
+            if isinstance(existing, FaultSchedule):
+                self.schedule = existing
             else:
                 self.schedule = FaultSchedule(self._faults, devices, log_event=runner.log_event, flight=runner.flight)
                 self._own_schedule = True
@@ -286,9 +298,10 @@ class Bench:
 
         now = clock.monotonic_ns()
         late_s = (now - self._stall_due_ns) / S
-        if late_s > STALL_WARN_S and self.running:
+        ticking = self.loop is not None and self.loop.stats.wall_end_ns == 0  # not the end-of-run work
+        if late_s > STALL_WARN_S and ticking:
             self.stalls.append((self.t_s, late_s))
-        if self.running:
+        if ticking:
             self._stall_due_ns = now + int(_STALL_PERIOD_S * S)
             self._stall_handle = asyncio.get_running_loop().call_later(_STALL_PERIOD_S, self._stall_tick)
 
@@ -624,9 +637,10 @@ class HilBench:
                 if b.stalls:
                     worst = max(s for _, s in b.stalls)
                     warnings.warn(HilBenchStallWarning(
-                        f"{self.nodeid}: the event loop stalled {len(b.stalls)} time(s) (worst {worst * 1e3:.0f} ms) "
-                        "while the bench ran; the flight code's IMU watchdog may have fired. Keep slow work out of "
-                        "the test body until after bench.stop()."), stacklevel=1)
+                        f"{self.nodeid}: the event loop did not run for up to {worst * 1e3:.0f} ms "
+                        f"({len(b.stalls)} time(s)) while the bench ran, so the flight code's wall-clock IMU watchdog "
+                        "may have fired: slow test code between awaits (do heavy work after bench.stop()), or an "
+                        "overloaded machine"), stacklevel=1)
                 if result.log_path is not None and result.log_path.exists() and (failure is not None or self.keep_all):
                     dest = self.keep_path(b)
                     dest.parent.mkdir(parents=True, exist_ok=True)
