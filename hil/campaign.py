@@ -29,6 +29,7 @@ Ctrl-C (which stops the running cases, their logs finalized, and cancels the que
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import datetime
 import enum
 import importlib.util
@@ -363,6 +364,9 @@ def _run_dask(cases: list[dict[str, Any]], workers: int, scheduler: str | None, 
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                                host="127.0.0.1", silence_logs=logging.ERROR)
         client = Client(cluster)
+        # A terminal Ctrl-C reaches the local workers too; the campaign stops the cases itself.
+        with contextlib.suppress(Exception):
+            client.run(_ignore_sigint)
     keys = [f"hil-case-{tag}-{c['case_id']}" for c in cases]
     by_key = dict(zip(keys, cases, strict=True))
     handled: set[str] = set()

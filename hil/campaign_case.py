@@ -26,6 +26,7 @@ import shutil
 import signal
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -197,6 +198,14 @@ def _case_files(params: dict[str, Any], case_dir: Path) -> tuple[Path, Path]:
     return rig, scenario
 
 
+async def _watch_stop(stop_file: str | None, stop: Callable[[], None]) -> None:
+    if not stop_file:
+        return
+    while not os.path.exists(stop_file):
+        await asyncio.sleep(_POLL_S)
+    stop()
+
+
 async def _fly(params: dict[str, Any]) -> dict[str, Any]:
     from hil.bench import Mode
     from hil.rig import load_rig
@@ -210,13 +219,24 @@ async def _fly(params: dict[str, Any]) -> dict[str, Any]:
     task = asyncio.current_task()
     loop = asyncio.get_running_loop()
     assert task is not None
+    stopping: list[bool] = []
+
+    def stop() -> None:  # once: a second cancel would interrupt the run's own clean-up
+        if not stopping:
+            stopping.append(True)
+            task.cancel()
+
     for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, task.cancel)
+        loop.add_signal_handler(sig, stop)
+    # The stop flag is watched here too, not only by run_case: if the worker that started this
+    # process died (a Ctrl-C in the terminal reaches a LocalCluster's workers), nobody else would.
+    watcher = asyncio.create_task(_watch_stop(params.get("stop_file"), stop))
     try:
         result = await run_flight_async(
             rig, scenario, mode=Mode(params["mode"]), seed=int(params["seed"]), duration_s=params.get("duration_s"),
             out_dir=log_path.parent, log_path=log_path, scenario_source=scenario_path)
     finally:
+        watcher.cancel()
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.remove_signal_handler(sig)
     return {
