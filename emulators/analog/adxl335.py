@@ -63,6 +63,10 @@ class Adxl335:
         self.noise_V_rms = tuple(
             float(density_V[i] * math.sqrt(math.pi / 2.0 * params.f3db_Hz(i))) for i in range(3)
         )
+        # The per-axis terms of static_V as floats for static_V_floats.
+        self._drift = tuple(self.zero_g_drift_g_per_C.tolist())
+        self._offset = tuple(self.zero_g_offset_V.tolist())
+        self._sens = tuple(self.sensitivity_V_per_g.tolist())
 
     @property
     def swing_V(self) -> tuple[float, float]:
@@ -77,3 +81,18 @@ class Adxl335:
         v = vs / 2.0 + self.zero_g_offset_V + self.sensitivity_V_per_g * a_S_g
         lo, hi = self.swing_V
         return np.clip(v, lo, hi)
+
+    def static_V_floats(self, f_B_mps2: tuple[float, float, float], T_C: float) -> list[float]:
+        """:meth:`static_V` as three floats, bit for bit: the element-wise steps in Python
+        floats (the same IEEE operations in the same order), the matrix products numpy's."""
+        p = self.params
+        a = (self.cross_axis @ (self.R_SB @ np.array(f_B_mps2, dtype=float))).tolist()
+        dT = float(T_C) - 25.0
+        half = p.supply_V / 2.0
+        lo, hi = self.swing_V
+        out = []
+        for i in range(3):
+            g = a[i] / G0_MPS2 + self._drift[i] * dT
+            v = half + self._offset[i] + self._sens[i] * g
+            out.append(min(max(v, lo), hi))  # np.clip(v, lo, hi); NaN stays NaN
+        return out

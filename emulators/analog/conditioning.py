@@ -8,10 +8,17 @@ a first-order stage is an Ornstein-Uhlenbeck process, also advanced exactly.
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import numpy as np
 
 from emulators.analog.params import ConditioningParams
+
+
+class NormalSource(Protocol):
+    """Anything that hands out standard normals one at a time (a numpy Generator does)."""
+
+    def standard_normal(self) -> float: ...
 
 LN9 = math.log(9.0)  #: 10-90 % rise time = tau * ln 9 for a first-order stage
 
@@ -51,6 +58,74 @@ def two_stage(x1_0: float, x2_0: float, u: float, tau1_s: float, tau2_s: float, 
     return u + e2 * a2 + cross
 
 
+class TwoStageStep:
+    """:func:`two_stage` for one fixed step ``dt_s``: the exponentials computed once.
+
+    ``apply`` performs the same floating-point operations in the same order as
+    :func:`two_stage` (so it returns the same bits), minus the ``exp`` calls.
+    """
+
+    __slots__ = ("_a1", "_a2", "_d", "_den", "_kind", "_q", "_tau1")
+
+    def __init__(self, tau1_s: float, tau2_s: float, dt_s: float) -> None:
+        self._tau1 = tau1_s
+        self._a1 = self._a2 = self._q = self._den = self._d = 0.0
+        if tau2_s <= 0.0:  # first_order(x1, u, tau1)
+            self._kind = 1 if tau1_s > 0.0 else 0
+            if tau1_s > 0.0:
+                self._a1 = math.exp(-dt_s / tau1_s)
+        elif tau1_s <= 0.0:
+            self._kind, self._a2 = 2, math.exp(-dt_s / tau2_s)
+        else:
+            self._a2 = math.exp(-dt_s / tau2_s)
+            if abs(tau1_s - tau2_s) < 1e-12 * max(tau1_s, tau2_s):
+                self._kind, self._q = 3, dt_s / tau2_s
+            else:
+                self._kind, self._den = 4, tau1_s - tau2_s
+                self._d = math.exp(-dt_s / tau1_s) - self._a2
+
+    def apply(self, x1_0: float, x2_0: float, u: float) -> float:
+        kind = self._kind
+        if kind == 4:
+            a2 = self._a2
+            return u + (x2_0 - u) * a2 + (x1_0 - u) * self._tau1 / self._den * self._d
+        if kind == 3:
+            a2 = self._a2
+            return u + (x2_0 - u) * a2 + (x1_0 - u) * self._q * a2
+        if kind == 2:
+            return u + (x2_0 - u) * self._a2
+        if kind == 1:
+            return u + (x1_0 - u) * self._a1
+        return u
+
+
+class NormalStream:
+    """Standard normals from ``rng``, drawn ``block`` at a time.
+
+    ``Generator.standard_normal(n)`` yields exactly the values of ``n`` successive
+    ``standard_normal()`` calls (one ziggurat draw per value; tests/unit/adc/
+    test_fastpath_equivalence.py checks it), so the consumers of a stream see the very
+    sequence single draws would give them, at a fraction of the cost. Valid only while
+    nothing else draws from ``rng``: the stream runs up to ``block - 1`` values ahead.
+    """
+
+    __slots__ = ("_block", "_buf", "_i", "_rng")
+
+    def __init__(self, rng: np.random.Generator, block: int = 64) -> None:
+        self._rng = rng
+        self._block = block
+        self._buf: list[float] = []
+        self._i = 0
+
+    def standard_normal(self) -> float:
+        i = self._i
+        if i >= len(self._buf):
+            self._buf = self._rng.standard_normal(self._block).tolist()
+            i = 0
+        self._i = i + 1
+        return self._buf[i]
+
+
 class OuNoise:
     """First-order low-passed white noise: stationary ``sigma``, correlation time ``tau_s``.
 
@@ -58,7 +133,7 @@ class OuNoise:
     new instant is an independent draw. The first value is drawn from the stationary law.
     """
 
-    def __init__(self, sigma: float, tau_s: float, rng: np.random.Generator) -> None:
+    def __init__(self, sigma: float, tau_s: float, rng: NormalSource) -> None:
         self.sigma = sigma
         self.tau_s = tau_s
         self._rng = rng

@@ -9,7 +9,13 @@ electrical noise at the pin. ``volts(channel, t_ns)`` is the MCP3204's sampler.
 
 Determinism: all randomness comes from the one ``rng``; the same sequence of calls gives
 the same values. Sensor noise at one instant is shared by repeated samples of that instant;
-electrical noise is drawn afresh for every sample.
+electrical noise is drawn afresh for every sample. After the sensors' unit draws, normals
+come from the rng in blocks (conditioning.NormalStream): the same values in the same order.
+
+Speed (this runs every tick and inside every ADC transaction): plain floats except for the
+ADXL335's two 3x3 matrix products, which stay numpy's (BLAS may fuse multiply-adds, so a
+scalar rewrite would not give the same bits); the filter exponentials are computed once per
+step length.
 """
 
 from __future__ import annotations
@@ -23,10 +29,11 @@ import numpy as np
 
 from emulators.analog.adxl335 import Adxl335
 from emulators.analog.conditioning import (
+    NormalStream,
     OuNoise,
+    TwoStageStep,
     amplify,
     filtered_noise,
-    first_order,
     tau_from_cutoff_s,
     two_stage,
 )
@@ -71,12 +78,18 @@ class AnalogFrontEnd:
         sensor_sigma = (self.baro.noise_V_rms, *self.accel.noise_V_rms)
         self._sig = [None if s == "none" else SIGNALS.index(s) for s in params.channel_map]
         self._tau_rc = [tau_from_cutoff_s(c.rc_cutoff_Hz) for c in params.conditioning]
+        #: every normal drawn after the sensors' unit draws above, in draw order
+        self._normals = NormalStream(rng)
         self._noise: list[OuNoise] = []
         for ch, sig in enumerate(self._sig):
             sigma, tau = (0.0, 0.0) if sig is None else filtered_noise(
                 sensor_sigma[sig], self._tau_sensor[sig], self._tau_rc[ch]
             )
-            self._noise.append(OuNoise(sigma, tau, rng))
+            self._noise.append(OuNoise(sigma, tau, self._normals))
+        self._wired = tuple((ch, sig) for ch, sig in enumerate(self._sig) if sig is not None)
+        self._steps_dt_ns: int | None = None  # step length the cached filter steps are for
+        self._steps_rc: dict[int, TwoStageStep] = {}  # per wired channel: sensor + RC stages
+        self._steps_sensor: tuple[TwoStageStep, ...] = ()  # per signal: the sensor stage
         self.baro_fault = BaroFault()
         self.accel_fault = AccelFault()
         self._stuck: list[float | None] = [None] * N_CHANNELS
@@ -102,14 +115,18 @@ class AnalogFrontEnd:
         if t_ns < self._t_ns:
             self.counters["update_backwards"] += 1
             return
-        dt_s = (t_ns - self._t_ns) * 1e-9
-        for ch, sig in enumerate(self._sig):
-            if sig is not None:
-                self._x2[ch] = two_stage(
-                    self._x1[sig], self._x2[ch], u[sig], self._tau_sensor[sig], self._tau_rc[ch], dt_s
-                )
-        for sig in range(4):
-            self._x1[sig] = first_order(self._x1[sig], u[sig], self._tau_sensor[sig], dt_s)
+        dt_ns = t_ns - self._t_ns
+        if dt_ns != self._steps_dt_ns:
+            dt_s = dt_ns * 1e-9
+            tau = self._tau_sensor
+            self._steps_rc = {ch: TwoStageStep(tau[sig], self._tau_rc[ch], dt_s) for ch, sig in self._wired}
+            self._steps_sensor = tuple(TwoStageStep(tau[sig], 0.0, dt_s) for sig in range(4))  # first_order
+            self._steps_dt_ns = dt_ns
+        x1, x2, steps = self._x1, self._x2, self._steps_rc
+        for ch, sig in self._wired:
+            x2[ch] = steps[ch].apply(x1[sig], x2[ch], u[sig])
+        for sig, step in enumerate(self._steps_sensor):
+            x1[sig] = step.apply(x1[sig], 0.0, u[sig])
         self._u = u
         self._t_ns = t_ns
 
@@ -127,7 +144,7 @@ class AnalogFrontEnd:
         else:
             cond = self.params.conditioning[channel]
             v = amplify(self._sensor_V(channel, t_ns), cond)
-            v += cond.noise_V_rms * float(self._rng.standard_normal())
+            v += cond.noise_V_rms * self._normals.standard_normal()
         return v
 
     @property
@@ -143,7 +160,7 @@ class AnalogFrontEnd:
         """Force input ``ch`` to ``volts`` (None releases it)."""
         self._stuck[ch] = volts
 
-    def set_channel_open(self, ch: int, open: bool) -> None:  # noqa: A002 - the fault's name
+    def set_channel_open(self, ch: int, open: bool) -> None:
         """Disconnect input ``ch``: from its next sample on it drifts from the connected
         (noise-free) voltage to the open level."""
         self._open[ch] = open
@@ -173,19 +190,22 @@ class AnalogFrontEnd:
     # -- internals -------------------------------------------------------------------------
     def _init_state(self, u: list[float]) -> None:
         self._u = list(u)
-        self._x1 = list(u)
-        self._x2 = [0.0 if sig is None else u[sig] for sig in self._sig]
+        self._x1: list[float] = list(u)  # sensor stage per signal, V
+        self._x2: list[float] = [0.0 if sig is None else u[sig] for sig in self._sig]  # pin node per channel
 
     def _static(self, p_Pa: float, f_B_mps2: Sequence[float], T_C: float) -> list[float]:
         bf, af = self.baro_fault, self.accel_fault
         baro_V = self.baro.static_V(p_Pa * bf.scale + bf.bias_Pa, T_C)
-        f = np.asarray(f_B_mps2, dtype=float) * af.scale + np.asarray(af.bias_mps2, dtype=float)
-        acc_V = self.accel.static_V(f, T_C)
+        scale, bias = af.scale, af.bias_mps2
+        f = (float(f_B_mps2[0]) * scale + bias[0], float(f_B_mps2[1]) * scale + bias[1],
+             float(f_B_mps2[2]) * scale + bias[2])
+        acc_V = self.accel.static_V_floats(f, T_C)
         if af.saturate:
             lo, hi = self.accel.swing_V
-            mid = self.params.accel.supply_V / 2.0 + self.accel.zero_g_offset_V
-            acc_V = np.where(acc_V >= mid, hi, lo)
-        return [baro_V, *(float(v) for v in acc_V)]
+            half = self.params.accel.supply_V / 2.0
+            mid = [half + o for o in self.accel.zero_g_offset_V.tolist()]
+            return [baro_V, *(hi if v >= m else lo for v, m in zip(acc_V, mid, strict=True))]
+        return [baro_V, *acc_V]
 
     def _sensor_V(self, ch: int, t_ns: int) -> float:
         sig = self._sig[ch]
@@ -221,4 +241,4 @@ class AnalogFrontEnd:
         dt_s = max(0, t_ns - t0) * 1e-9
         level = p.open_input_level_V
         v = level + (v0 - level) * (math.exp(-dt_s / p.open_input_tau_s) if p.open_input_tau_s > 0 else 0.0)
-        return v + p.open_input_noise_V_rms * float(self._rng.standard_normal())
+        return v + p.open_input_noise_V_rms * self._normals.standard_normal()
