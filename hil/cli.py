@@ -238,6 +238,60 @@ def perf(
 
 
 @app.command()
+def replay(
+    log: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
+    port: Annotated[Optional[list[str]], typer.Option("--port", "-p", help="Replay only this port (repeatable).")] = None,
+    speed: Annotated[float, typer.Option(help="Sim seconds per wall second; 0 = as fast as the clients read.")] = 1.0,
+    from_: Annotated[Optional[float], typer.Option("--from", help="Skip bytes before this sim time (s); 0 skips boot.")] = None,
+    no_wait: Annotated[bool, typer.Option("--no-wait", help="Start at once, not when every port has been opened.")] = False,
+    verify_: Annotated[bool, typer.Option("--verify", help="Re-run the recorded run from the log's attachments and compare the control wires byte for byte.")] = False,
+    out: Annotated[Path, typer.Option(help="With --verify: where the re-run's log goes.")] = Path("logs/verify"),
+) -> None:
+    """Play a recorded session's device bytes back on ptys, or --verify it by re-running it."""
+    from hil.record import TornRecordingError
+    from hil.replay import ReplayError, replay as do_replay, verify
+
+    if not log.exists():
+        _fail(f"{log}: no such file")
+    try:
+        if verify_:
+            result = verify(log, out)
+            console.print(result.report(), markup=False, highlight=False)
+            raise typer.Exit(0 if result.ok else 1)
+        asyncio.run(
+            do_replay(log, ports=port or None, speed=speed, from_s=from_, wait_open=not no_wait, console=console)
+        )
+    except (ReplayError, TornRecordingError) as exc:
+        _fail(str(exc))
+
+
+@app.command()
+def campaign(
+    file: Annotated[Path, typer.Argument(help="A campaign TOML (rigs/campaigns/*.toml).")],
+    workers: Annotated[Optional[int], typer.Option(help="Parallel runs (default: one per two cores).")] = None,
+    scheduler: Annotated[Optional[str], typer.Option(help="A Dask scheduler address, e.g. tcp://host:8786.")] = None,
+    executor: Annotated[str, typer.Option(help="auto (Dask if installed), dask or process.")] = "auto",
+    out: Annotated[Optional[Path], typer.Option(help="Campaign output directory (default: the file's).")] = None,
+    keep_logs: Annotated[Optional[str], typer.Option(help="all, failed or none (default: the file's).")] = None,
+) -> None:
+    """Many runs (scenarios x seeds x sweeps), each in its own process, summarized."""
+    from hil.campaign import KeepLogs, load_campaign, run_campaign
+    from hil.config import ConfigError
+
+    try:
+        camp = load_campaign(file)
+        keep = KeepLogs(keep_logs) if keep_logs is not None else None
+    except (ConfigError, ValueError) as exc:
+        _fail(str(exc))
+    result = run_campaign(
+        camp, workers=workers, scheduler=scheduler, executor=executor, out_dir=out, keep_logs=keep, console=console  # type: ignore[arg-type]
+    )
+    if result.summary.get("interrupted"):
+        raise typer.Exit(130)
+    raise typer.Exit(0 if result.passed else 1)
+
+
+@app.command()
 def faults(
     layer: Annotated[Optional[str], typer.Option(help="Only this layer (plant, sensor, wire, device, process...).")] = None,
 ) -> None:
