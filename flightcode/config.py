@@ -172,8 +172,9 @@ class KfParams:
     q_a: float = 2.0
     q_d: float = 0.05
     q_b: float = 1e-6
-    r_baro_m2: float = 1.28
+    r_baro_m2: float = 0.2
     r_acc: float = 0.091
+    r_rest_vz: float = 0.0025
 
 
 @dataclass(frozen=True)
@@ -327,7 +328,7 @@ def _check(file: str, cfg: FlightConfig) -> None:
         "attitude.omega2_radps": cfg.attitude.omega2_radps, "yaw.u_limit_Nm": cfg.yaw.u_limit_Nm,
         "altitude.T1_s": cfg.altitude.T1_s, "altitude.q_int": cfg.altitude.q_int, "altitude.r": cfg.altitude.r,
         "altitude.alt_range_m": cfg.altitude.alt_range_m, "kf.r_baro_m2": cfg.kf.r_baro_m2,
-        "kf.r_acc": cfg.kf.r_acc, "failsafe.rc_loss_s": cfg.failsafe.rc_loss_s,
+        "kf.r_acc": cfg.kf.r_acc, "kf.r_rest_vz": cfg.kf.r_rest_vz, "failsafe.rc_loss_s": cfg.failsafe.rc_loss_s,
         "failsafe.descend_mps": cfg.failsafe.descend_mps, "failsafe.imu_timeout_s": cfg.failsafe.imu_timeout_s,
         "telemetry.divider": cfg.telemetry.divider, "log.stats_period_s": cfg.log.stats_period_s,
         "modes.gesture_hold_s": cfg.modes.gesture_hold_s, "modes.landed_s": cfg.modes.landed_s,

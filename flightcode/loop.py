@@ -37,7 +37,7 @@ from flightcode.control.memory_attitude import MemoryAttitudeController, MemoryG
 from flightcode.control.mixer import Mixer
 from flightcode.control.reference import Prefilter3, RefState
 from flightcode.control.yaw_rate import YawRateController
-from flightcode.drivers.analog import G0_MPS2, AnalogChain, BaroReference
+from flightcode.drivers.analog import G0_MPS2, AccelRestOffset, AnalogChain, BaroReference
 from flightcode.drivers.buspirate_spi import BusPirateSpi
 from flightcode.drivers.base import SerialLike
 from flightcode.drivers.maestro import MaestroEsc
@@ -137,10 +137,11 @@ class FlightLoop:
         self.model = AltitudeModel(v.m_kg, v.F_max_N, alt.T1_s)
         self.lqi = LqiAltitude(self.model, q_int=alt.q_int, q_z=alt.q_z, q_vz=alt.q_vz, q_az=alt.q_az, r=alt.r,
                                T_s=T_s)
-        self.kf = AltitudeKF(self.model, T_s, kf.q_a, kf.q_d, kf.q_b, kf.r_baro_m2, kf.r_acc)
+        self.kf = AltitudeKF(self.model, T_s, kf.q_a, kf.q_d, kf.q_b, kf.r_baro_m2, kf.r_acc, kf.r_rest_vz)
         self.mixer = Mixer(v.frame, v.arm_m, v.F_max_N / 4.0, v.kq_over_kt_m)
         self.analog = AnalogChain(cfg.adc.vref_V, cfg.adc.baro, cfg.adc.accel)
         self.baro_ref = BaroReference(int(cfg.adc.baro.zero_average_s * 1e9))
+        self.accel_zero = AccelRestOffset()
         self.modes = ModeMachine(cfg.modes, alt.takeoff_alt_m)
         self.descent = _Descent(cfg.failsafe.descend_mps)
         self.window = ComputeWindow()
@@ -283,12 +284,15 @@ class FlightLoop:
         if codes is not None:
             p_Pa = self.analog.baro_pressure_Pa(codes[0])
             f_adxl = self.analog.accel_B_mps2(codes[1], codes[2], codes[3])
+            if not self.baro_ref.ready:  # boot: at rest, averaging the references
+                self.accel_zero.add(f_adxl, roll, pitch)
+            else:
+                f_adxl = self.accel_zero.correct(f_adxl)
             if p_Pa is None:
                 self.counters["baro_out_of_range"] += 1
             elif not self.baro_ref.ready:
                 if self.baro_ref.add(p_Pa, t_ns):
-                    self.log.info("baro.reference", p_ref_Pa=self.baro_ref.p_ref_Pa)
-                    self.kf.reset(0.0)
+                    self._fix_references()
             else:
                 z_baro = self.baro_ref.altitude_m(p_Pa)
 
@@ -314,6 +318,8 @@ class FlightLoop:
         if self.baro_ref.ready:
             self.kf.predict(self._u_applied)
             self.kf.update(z_baro, a_up)
+            if self.modes.at_rest:  # standing on the ground (the mode of the last sample)
+                self.kf.update_at_rest()
         z_hat, vz_hat, az_hat = self.kf.z_m, self.kf.vz_mps, self.kf.az_mps2
 
         # 5. modes
@@ -394,6 +400,18 @@ class FlightLoop:
             self._log_stats(mode, z_hat)
         self.last = {"mode": mode, "z_ref_m": z_ref, "z_hat_m": z_hat, "pulses_us": pulses, "rc_valid": rc_valid,
                      "z_baro_m": z_baro, "a_up_mps2": a_up, "compute_ns": compute_ns}
+
+    def _fix_references(self) -> None:
+        """End of the boot averaging: altitude zero, accelerometer offsets, estimator start."""
+        ref = self.baro_ref
+        self.log.info("baro.reference", p_ref_Pa=ref.p_ref_Pa, samples=ref.samples)
+        offset = self.accel_zero.fix()
+        if self.accel_zero.rejected:
+            self.log.warning("accel.offset_rejected", limit_mps2=self.accel_zero.limit_mps2)
+        else:
+            self.log.info("accel.offset", x_mps2=offset[0], y_mps2=offset[1], z_mps2=offset[2])
+        # z = 0 is known to the accuracy of the average, not of one reading
+        self.kf.reset(0.0, z_var_m2=self.cfg.kf.r_baro_m2 / max(1, ref.samples))
 
     def _rc_errors(self) -> int:
         c = self.dev.rc.counters

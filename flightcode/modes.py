@@ -94,6 +94,9 @@ MOTORS: dict[Mode, MotorPolicy] = {
     M.FAILSAFE_RC: MotorPolicy.CONTROL,
     M.FAILSAFE_IMU: MotorPolicy.MINIMUM,
 }
+#: Modes in which the vehicle stands on the ground (motors at minimum or idle): the altitude
+#: estimator may assume it is at rest. Not FAILSAFE_IMU: that one can start in the air.
+AT_REST: frozenset[Mode] = frozenset({M.BOOT, M.DISARMED, M.ARMED})
 del E, M
 
 
@@ -183,6 +186,11 @@ class ModeMachine:
     @property
     def motors(self) -> MotorPolicy:
         return MOTORS[self.mode]
+
+    @property
+    def at_rest(self) -> bool:
+        """True while the vehicle stands on the ground (:data:`AT_REST`)."""
+        return self.mode in AT_REST
 
     @property
     def controllers_active(self) -> bool:

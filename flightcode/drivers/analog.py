@@ -21,6 +21,7 @@ interim chain of the ADC notes, to be aligned with docs/analog-chain.md):
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 RESOLUTION_CODES = 4096
@@ -134,6 +135,52 @@ class AnalogChain:
         return (sx * s[ix], sy * s[iy], sz * s[iz])
 
 
+class AccelRestOffset:
+    """The accelerometer's offsets in body axes, learnt at rest during the boot averaging.
+
+    At rest the specific force is ``f_B = R_NB^T (0, 0, -g)`` = (g sin(theta),
+    -g sin(phi) cos(theta), -g cos(phi) cos(theta)) for the IMU's roll phi and pitch theta;
+    the mean of ``measured - expected`` is each axis' zero-g offset (up to 0.5 g on X/Y and
+    1 g on Z for an ADXL335, docs/analog-chain.md 5), plus the Z sensitivity error at 1 g,
+    which flight at hover thrust sees too. An offset beyond ``limit_mps2`` on any axis is not
+    a believable part (a loose connector, the board mounted otherwise than ``mount_B``): it is
+    rejected and the offsets stay zero.
+    """
+
+    def __init__(self, limit_mps2: float = 1.5 * G0_MPS2) -> None:
+        self.limit_mps2 = limit_mps2
+        self._sum = [0.0, 0.0, 0.0]
+        self._n = 0
+        #: (x, y, z) offsets, m/s^2, subtracted from every reading once fixed.
+        self.offset_B_mps2: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self.rejected = False
+
+    def add(self, f_B_mps2: tuple[float, float, float], roll_rad: float, pitch_rad: float) -> None:
+        """One reading at rest with the IMU's attitude."""
+        sphi, cphi = math.sin(roll_rad), math.cos(roll_rad)
+        sth, cth = math.sin(pitch_rad), math.cos(pitch_rad)
+        s = self._sum
+        s[0] += f_B_mps2[0] - G0_MPS2 * sth
+        s[1] += f_B_mps2[1] + G0_MPS2 * sphi * cth
+        s[2] += f_B_mps2[2] + G0_MPS2 * cphi * cth
+        self._n += 1
+
+    def fix(self) -> tuple[float, float, float]:
+        """Average what was added; returns the offsets (zeros if none or rejected)."""
+        if self._n:
+            mean = (self._sum[0] / self._n, self._sum[1] / self._n, self._sum[2] / self._n)
+            if max(abs(v) for v in mean) > self.limit_mps2:
+                self.rejected = True
+            else:
+                self.offset_B_mps2 = mean
+        return self.offset_B_mps2
+
+    def correct(self, f_B_mps2: tuple[float, float, float]) -> tuple[float, float, float]:
+        """A reading with the offsets removed, m/s^2 (body FRD)."""
+        o = self.offset_B_mps2
+        return (f_B_mps2[0] - o[0], f_B_mps2[1] - o[1], f_B_mps2[2] - o[2])
+
+
 class BaroReference:
     """Averages the pressure over the first ``average_ns`` of sensor time; then gives altitude.
 
@@ -151,6 +198,11 @@ class BaroReference:
     @property
     def ready(self) -> bool:
         return self.p_ref_Pa is not None
+
+    @property
+    def samples(self) -> int:
+        """Readings averaged so far."""
+        return self._n
 
     def add(self, p_Pa: float, t_ns: int) -> bool:
         """Accumulate one reading; returns True once the reference is fixed."""

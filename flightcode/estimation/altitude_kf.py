@@ -15,10 +15,19 @@ positive: a_up = -(R_NB f_B)_z - g with f_B the FRD specific force (the loop com
 compensated). The d state is needed: without it a constant throttle offset (payload) would be
 mistaken for accelerometer bias.
 
+On the ground (motors not under control) the vehicle is at rest: :meth:`update_at_rest`
+adds a zero-velocity pseudo-measurement (z' = 0, variance ``r_rest_vz``), so an accelerometer
+offset is learnt as bias b instead of being integrated into a fall (what made the estimate sink
+to -0.5..-1.5 m while disarmed); the height itself is still the barometer's.
+
 Discretisation at T_s: F, B by ``control.c2d`` (ZOH on u); Q by Van Loan from the white-noise
-PSDs (q_a, q_d, q_b) with ``filterpy.common.van_loan_discretization``. The filter itself is
-``filterpy.kalman.KalmanFilter``; a tick with only one measurement uses its sequential update
-(filterpy >= 2.0).
+PSDs (q_a, q_d, q_b) with ``filterpy.common.van_loan_discretization``; they are held in a
+``filterpy.kalman.KalmanFilter`` (:attr:`AltitudeKF.kf`). The per-sample arithmetic is the
+same filter done in place on preallocated arrays: R is diagonal, so the measurements are
+applied one scalar at a time (exactly the joint update), each a rank-one covariance update
+without a matrix inverse; P is re-symmetrised every predict. That is about 3x cheaper than
+filterpy's general predict/update (which allocates and inverts per call) and is tested
+against it (tests/unit/flightcode/estimation/test_altitude_kf.py).
 """
 
 from __future__ import annotations
@@ -47,8 +56,10 @@ class AltitudeKF:
         model: vertical model (k/m and T1 drive the a state).
         T_s: tick period, s.
         q_a, q_d, q_b: continuous white-noise PSDs on a', d', b', (m/s^3)^2/Hz.
-        r_baro_m2: barometric altitude noise variance, m^2 (0.5 mV + ADC quantisation).
+        r_baro_m2: barometric altitude noise variance, m^2 (default: the paper's chain without
+            the x16 stage, 0.5 mV + quantisation; the flight config sets the vehicle's).
         r_acc: vertical acceleration noise variance, (m/s^2)^2 (vibration + ADXL noise + LSB).
+        r_rest_vz: variance of the zero-velocity pseudo-measurement at rest, (m/s)^2.
     """
 
     def __init__(
@@ -60,13 +71,14 @@ class AltitudeKF:
         q_b: float = 1e-6,
         r_baro_m2: float = 1.28,
         r_acc: float = 0.091,
+        r_rest_vz: float = 0.0025,
     ) -> None:
         if not (math.isfinite(T_s) and T_s > 0.0):
             raise ValueError(f"T_s must be finite and > 0, got {T_s}")
         for name, value in (("q_a", q_a), ("q_d", q_d), ("q_b", q_b)):
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name} must be finite and >= 0, got {value}")
-        for name, value in (("r_baro_m2", r_baro_m2), ("r_acc", r_acc)):
+        for name, value in (("r_baro_m2", r_baro_m2), ("r_acc", r_acc), ("r_rest_vz", r_rest_vz)):
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
         self.model = model
@@ -84,8 +96,24 @@ class AltitudeKF:
         # Symmetrise: Van Loan's product is symmetric only to rounding.
         kf.Q = 0.5 * (q_d_matrix + q_d_matrix.T)
         kf.R = np.diag([float(r_baro_m2), float(r_acc)])
+        #: The design (F, B, H, Q, R) in filterpy's filter: the reference of the fast path.
         self.kf = kf
+        self.r_baro_m2 = float(r_baro_m2)
+        self.r_acc = float(r_acc)
+        self.r_rest_vz = float(r_rest_vz)
         self._p0 = np.diag([float(r_baro_m2)] + [float(v) for v in P0_DIAG_REST[1:]])
+        # Per-sample working arrays (no allocation on the tick path).
+        self._F = np.array(kf.F)
+        self._Ft = np.array(kf.F.T)
+        self._B = np.array(kf.B[:, 0])
+        self._Q = np.array(kf.Q)
+        self._x = np.zeros(5)
+        self._x_next = np.zeros(5)
+        self._v5 = np.zeros(5)
+        self._ph = np.zeros(5)
+        self._k = np.zeros(5)
+        self._P = np.zeros((5, 5))
+        self._m55 = np.zeros((5, 5))
         #: Non-finite inputs seen (treated as missing measurements / zero input).
         self.counters: Counter[str] = Counter()
         self.reset(0.0)
@@ -102,17 +130,53 @@ class AltitudeKF:
         b[2, 0] = model.k_over_m_mps2 / model.T1_s
         return a, b
 
-    def reset(self, z0_m: float) -> None:
-        """Restart at altitude ``z0_m`` (m, up), at rest, with the initial covariance P0."""
-        self.kf.x = np.array([[float(z0_m)], [0.0], [0.0], [0.0], [0.0]])
-        self.kf.P = self._p0.copy()
+    def reset(self, z0_m: float, z_var_m2: float | None = None) -> None:
+        """Restart at altitude ``z0_m`` (m, up), at rest, with the initial covariance P0.
+
+        ``z_var_m2``: variance of ``z0_m`` (default one barometer reading's, ``r_baro_m2``;
+        the loop passes the variance of its boot pressure average, which is much smaller).
+        """
+        self._x[:] = (float(z0_m), 0.0, 0.0, 0.0, 0.0)
+        self._P[:] = self._p0
+        if z_var_m2 is not None:
+            self._P[0, 0] = float(z_var_m2)
 
     def predict(self, u_throttle_dev: float) -> None:
         """Propagate one tick with the applied throttle deviation u = d - d_h (unit throttle)."""
         if not math.isfinite(u_throttle_dev):
             self.counters["nonfinite_input"] += 1
             u_throttle_dev = 0.0
-        self.kf.predict(u=u_throttle_dev)
+        x, xn, P, m = self._x, self._x_next, self._P, self._m55
+        np.dot(self._F, x, out=xn)
+        np.multiply(self._B, u_throttle_dev, out=self._v5)
+        xn += self._v5
+        self._x, self._x_next = xn, x
+        np.dot(self._F, P, out=m)
+        np.dot(m, self._Ft, out=P)
+        P += self._Q
+        np.add(P, P.T, out=m)  # re-symmetrise (the rank-one updates are symmetric only to rounding)
+        np.multiply(m, 0.5, out=P)
+
+    def _scalar_update(self, innovation: float, hph: float, r: float) -> None:
+        """x += K innovation, P -= K (H P) for one scalar measurement; ``self._ph`` holds P H^T
+        and ``hph`` is H P H^T."""
+        ph, k, x = self._ph, self._k, self._x
+        s = hph + r
+        np.multiply(ph, 1.0 / s, out=k)
+        np.multiply(k, innovation, out=self._v5)
+        x += self._v5
+        np.multiply(k[:, None], ph[None, :], out=self._m55)
+        self._P -= self._m55
+
+    def _update_baro(self, z_baro_m: float) -> None:
+        np.copyto(self._ph, self._P[:, 0])
+        self._scalar_update(z_baro_m - float(self._x[0]), float(self._ph[0]), self.r_baro_m2)
+
+    def _update_acc(self, a_up_mps2: float) -> None:
+        P, ph, x = self._P, self._ph, self._x
+        np.add(P[:, 2], P[:, 3], out=ph)
+        ph += P[:, 4]
+        self._scalar_update(a_up_mps2 - float(x[2] + x[3] + x[4]), float(ph[2] + ph[3] + ph[4]), self.r_acc)
 
     def update(self, z_baro_m: float | None, a_up_mps2: float | None) -> None:
         """Correct with this tick's measurements; ``None`` (or non-finite) means missing.
@@ -121,56 +185,64 @@ class AltitudeKF:
             z_baro_m: barometric altitude, m, up positive.
             a_up_mps2: vertical acceleration from the accelerometer, m/s^2, up positive.
         """
-        if z_baro_m is not None and not math.isfinite(z_baro_m):
-            self.counters["nonfinite_baro"] += 1
-            z_baro_m = None
-        if a_up_mps2 is not None and not math.isfinite(a_up_mps2):
-            self.counters["nonfinite_acc"] += 1
-            a_up_mps2 = None
-        if z_baro_m is not None and a_up_mps2 is not None:
-            self.kf.update(np.array([z_baro_m, a_up_mps2]))
-        elif z_baro_m is not None:
-            self.kf.update_sequential(0, z_baro_m)
-        elif a_up_mps2 is not None:
-            self.kf.update_sequential(1, a_up_mps2)
+        if z_baro_m is not None:
+            if math.isfinite(z_baro_m):
+                self._update_baro(z_baro_m)
+            else:
+                self.counters["nonfinite_baro"] += 1
+        if a_up_mps2 is not None:
+            if math.isfinite(a_up_mps2):
+                self._update_acc(a_up_mps2)
+            else:
+                self.counters["nonfinite_acc"] += 1
+
+    def update_at_rest(self) -> None:
+        """The vehicle stands on the ground: fuse z' = 0 (variance ``r_rest_vz``)."""
+        np.copyto(self._ph, self._P[:, 1])
+        self._scalar_update(-float(self._x[1]), float(self._ph[1]), self.r_rest_vz)
+
+    @property
+    def x(self) -> np.ndarray:
+        """State [z m, z' m/s, a m/s^2, d m/s^2, b m/s^2] (a copy)."""
+        return np.array(self._x)
 
     @property
     def z_m(self) -> float:
         """Estimated altitude, m (up)."""
-        return float(self.kf.x[0, 0])
+        return float(self._x[0])
 
     @property
     def vz_mps(self) -> float:
         """Estimated vertical velocity, m/s (up)."""
-        return float(self.kf.x[1, 0])
+        return float(self._x[1])
 
     @property
     def az_mps2(self) -> float:
         """Estimated vertical acceleration a + d, m/s^2 (up)."""
-        return float(self.kf.x[2, 0] + self.kf.x[3, 0])
+        return float(self._x[2] + self._x[3])
 
     @property
     def a_thrust_mps2(self) -> float:
         """Thrust-deviation acceleration state a, m/s^2."""
-        return float(self.kf.x[2, 0])
+        return float(self._x[2])
 
     @property
     def disturbance_mps2(self) -> float:
         """Disturbance acceleration state d, m/s^2."""
-        return float(self.kf.x[3, 0])
+        return float(self._x[3])
 
     @property
     def bias_mps2(self) -> float:
         """Accelerometer bias state b, m/s^2."""
-        return float(self.kf.x[4, 0])
+        return float(self._x[4])
 
     @property
     def P(self) -> np.ndarray:
-        """Posterior covariance (5, 5) in the state units above (a copy)."""
-        return np.array(self.kf.P)
+        """Covariance (5, 5) in the state units above (a copy; after predict: the prior)."""
+        return np.array(self._P)
 
     @property
     def P_diag(self) -> tuple[float, float, float, float, float]:
         """Diagonal of the covariance: variances of [z, z', a, d, b]."""
-        p = self.kf.P
+        p = self._P
         return (float(p[0, 0]), float(p[1, 1]), float(p[2, 2]), float(p[3, 3]), float(p[4, 4]))

@@ -410,7 +410,8 @@ class FakeWorld:
     FIELD_ALT_M = 50.0
 
     def __init__(self, sticks: Callable[[float], list[float] | None], *, legacy_imu: bool = False,
-                 rc_frontend: str = "capture", seed: int = 1, motor_tau_s: float = 0.0) -> None:
+                 rc_frontend: str = "capture", seed: int = 1, motor_tau_s: float = 0.0,
+                 accel_zero_g_error_V: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
         #: wall clock of the lockstep: a tick per sample, a read timeout per starved ADC read
         self.clock = FakeClock()
         self.ports = {name: FakeSerial(name, self.clock, 0.02 if name == "adc" else 0.0)
@@ -423,6 +424,7 @@ class FakeWorld:
         self.esc = FakeMaestro(self.ports["esc"])
         self.plant = PlantState()
         self.motor_tau_s = motor_tau_s
+        self.accel_zero_g_error_V = accel_zero_g_error_V  # ADXL335 zero-g offsets of this unit (sensor X, Y, Z)
         self._thrust_N = [0.0] * 4  # with motor lag: the thrust each motor actually gives
         self.k = -1  # index of the last emitted tick
         self.imu_silent_ticks: set[int] = set()
@@ -485,7 +487,8 @@ class FakeWorld:
         else:
             # ADXL335 flat, component side up: sensor (X, Y, Z) = (x_B, -y_B, -z_B).
             f = self._specific_force_B()[channel - 1] * (1.0 if channel == 1 else -1.0)
-            v_adc = 3.3 * (0.5 + 0.1 * f / G) + self.rng.normal(0.0, 0.0005)
+            v_adc = (3.3 * (0.5 + 0.1 * f / G) + self.accel_zero_g_error_V[channel - 1]
+                     + self.rng.normal(0.0, 0.0005))
         return min(4095, max(0, int(math.floor(4096.0 * v_adc / 5.0))))
 
     def _tick(self) -> None:

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 from flightcode.drivers.analog import (
     AccelChainParams,
+    AccelRestOffset,
     AnalogChain,
     BaroChainParams,
     BaroReference,
@@ -124,3 +125,26 @@ def test_worked_examples_of_the_analog_chain_doc() -> None:
     assert chain.baro_pressure_Pa(2495) == pytest.approx(100_000.4, abs=0.1)
     assert chain.baro_pressure_Pa(3276) == pytest.approx(101_324.5, abs=0.1)
     assert chain.accel_B_mps2(1351, 1351, 1622) == pytest.approx((0.0, 0.0, -G), abs=0.03)
+
+
+@settings(max_examples=30, deadline=None)
+@given(roll=st.floats(-0.2, 0.2), pitch=st.floats(-0.2, 0.2),
+       offset=st.tuples(st.floats(-4.9, 4.9), st.floats(-4.9, 4.9), st.floats(-9.8, 9.8)))
+def test_accel_rest_offset_is_learnt_on_a_tilted_ground(roll: float, pitch: float,
+                                                        offset: tuple[float, float, float]) -> None:
+    # At rest f_B = R_NB^T (0, 0, -g): independent rotation of the gravity vector.
+    c, s = math.cos, math.sin
+    f_rest = (G * s(pitch), -G * s(roll) * c(pitch), -G * c(roll) * c(pitch))
+    cal = AccelRestOffset()
+    for k in range(50):
+        wobble = 0.01 * ((k % 5) - 2)  # zero-mean noise
+        cal.add(tuple(f + o + wobble for f, o in zip(f_rest, offset)), roll, pitch)  # type: ignore[arg-type]
+    assert cal.fix() == pytest.approx(offset, abs=1e-9)
+    assert cal.correct(tuple(f + o for f, o in zip(f_rest, offset))) == pytest.approx(f_rest, abs=1e-9)  # type: ignore[arg-type]
+
+
+def test_accel_rest_offset_rejects_an_unbelievable_part() -> None:
+    cal = AccelRestOffset()
+    cal.add((0.0, 0.0, +G), 0.0, 0.0)  # 2 g off: the board upside down, or a loose connector
+    assert cal.fix() == (0.0, 0.0, 0.0) and cal.rejected
+    assert AccelRestOffset().fix() == (0.0, 0.0, 0.0)  # nothing added: nothing to remove

@@ -140,6 +140,20 @@ def test_imu_silence_sends_motors_to_minimum_then_disarms() -> None:
     assert loop.modes.mode is Mode.DISARMED and w.esc.pulses_us == [1000.0] * 4
 
 
+def test_estimate_stays_on_the_ground_with_an_accelerometer_offset_then_flies() -> None:
+    # The bench's seed-1 ADXL335: sensor X +0.073 V (0.22 g), Z -0.175 V (-0.53 g). Before the
+    # boot calibration and the at-rest update the estimate sank to -0.6 m while disarmed.
+    offsets = (0.073, -0.018, -0.175)
+    loop, w, log = run(lambda t: pilot(t, climb_at=3.0), 1000, accel_zero_g_error_V=offsets)
+    assert "event=accel.offset x_mps2=2.16" in log and "z_mps2=5.2" in log  # body z = -sensor Z
+    tel = [f for f in telemetry_of(w) if f["mode"] in (Mode.DISARMED, Mode.ARMED)]
+    assert len(tel) > 80 and max(abs(f["z_hat_m"]) for f in tel) < 0.1
+    assert max(abs(f["vz_hat_mps"]) for f in tel) < 0.05
+    loop.run(max_iterations=2000)  # take off to 2 m with the calibrated accelerometer
+    assert loop.modes.mode is Mode.FLYING and abs(w.plant.z_m - 2.0) < 0.3
+    assert abs(loop.kf.bias_mps2) < 0.3
+
+
 def test_late_imu_samples_in_lockstep_cost_no_flight() -> None:
     # A loaded bench holds the next sample back past the watchdog while sim time stands still:
     # the watchdog fires (motors to minimum), and the sample that then arrives is the next one.

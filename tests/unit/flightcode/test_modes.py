@@ -6,7 +6,7 @@ from hypothesis import settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, rule
 
-from flightcode.modes import MOTORS, RESUME, TRANSITIONS, Mode, ModeEvent, ModeMachine, ModesParams, MotorPolicy
+from flightcode.modes import AT_REST, MOTORS, RESUME, TRANSITIONS, Mode, ModeEvent, ModeMachine, ModesParams, MotorPolicy
 
 TICK = 2_500_000
 S = 1_000_000_000
@@ -154,6 +154,8 @@ def test_imu_loss_during_boot_keeps_booting() -> None:
 def test_tables_cover_every_mode() -> None:
     assert set(TRANSITIONS) == set(Mode) == set(MOTORS)
     assert {m for m in Mode if MOTORS[m] is MotorPolicy.CONTROL} == {Mode.FLYING, Mode.FAILSAFE_RC}
+    # at rest = on the ground; FAILSAFE_IMU cuts the motors but may start in the air
+    assert AT_REST == {Mode.BOOT, Mode.DISARMED, Mode.ARMED}
 
 
 class ModesMachine(RuleBasedStateMachine):
