@@ -1,0 +1,46 @@
+"""Every `hil` command answers --help; bad input gets a clear error and exit status 2."""
+
+from __future__ import annotations
+
+import pytest
+from typer.testing import CliRunner
+
+from hil.cli import app
+
+runner = CliRunner()
+COMMANDS = sorted(c.name or c.callback.__name__ for c in app.registered_commands)  # type: ignore[union-attr]
+
+
+def test_every_expected_command_exists() -> None:
+    assert {"run", "devices", "faults", "timing", "report", "replay", "recover", "campaign", "perf"} <= set(COMMANDS)
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_help(command: str) -> None:
+    result = runner.invoke(app, [command, "--help"])
+    assert result.exit_code == 0, result.output
+    assert "Usage" in result.output
+
+
+def test_unknown_rig_is_a_clear_error() -> None:
+    result = runner.invoke(app, ["run", "no-such-rig"])
+    assert result.exit_code == 2
+    assert "no-such-rig" in result.output and "no such rig" in result.output
+
+
+def test_unknown_scenario_lists_the_known_ones() -> None:
+    result = runner.invoke(app, ["run", "-s", "no-such-scenario"])
+    assert result.exit_code == 2
+    assert "hover" in result.output
+
+
+def test_bad_mode_is_refused() -> None:
+    result = runner.invoke(app, ["run", "--mode", "fast"])
+    assert result.exit_code == 2
+    assert "lockstep" in result.output
+
+
+def test_faults_lists_the_catalogue() -> None:
+    result = runner.invoke(app, ["faults"])
+    assert result.exit_code == 0
+    assert "imu.silence" in result.output and "wire.bit_flips" in result.output

@@ -1,0 +1,86 @@
+"""Rig and scenario files: the default ones load; bad input names file, key and reason."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from hil.config import SCENARIOS_DIR, ConfigError
+from hil.rig import load_rig
+from hil.scenario import load_scenario
+from hil.scenario_runner import ScenarioRunner
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def _rig(tmp_path: Path, extra: str) -> Path:
+    text = (ROOT / "rigs" / "paper-quad.toml").read_text().replace(
+        'config = "flightcode-paper-quad.toml"', f'config = "{ROOT / "rigs" / "flightcode-paper-quad.toml"}"'
+    )
+    path = tmp_path / "rig.toml"
+    path.write_text(text + "\n" + extra)
+    return path
+
+
+def test_default_rig_loads_with_its_values() -> None:
+    rig = load_rig(None)
+    assert rig.name == "paper-quad" and rig.tick_ns == 2_500_000
+    assert rig.plant.body.mass_kg == 1.1
+    assert rig.imu.baud_bps == 921600
+    assert rig.analog.conditioning[0].gain == 16.0
+    assert rig.device_baud("imu") == 921600 and rig.device_baud("adc") == 115200
+
+
+@pytest.mark.parametrize("scenario", sorted(p.stem for p in SCENARIOS_DIR.glob("*.toml")))
+def test_every_shipped_scenario_loads_and_its_faults_fit_the_rig(scenario: str) -> None:
+    rig = load_rig(None)
+    path = rig.scenario_path(scenario)
+    sc = load_scenario(path)
+    runner = ScenarioRunner(sc, rig, path)  # checks the faults against the rig
+    assert sc.criteria, f"{scenario} has no criteria"
+    assert runner.faults is not None
+
+
+def test_unknown_key_names_file_table_and_key(tmp_path: Path) -> None:
+    path = _rig(tmp_path, "[imu.extra]\nfoo = 1\n")
+    with pytest.raises(ConfigError) as err:
+        load_rig(path)
+    assert str(path) in str(err.value) and "[imu] extra" in str(err.value)
+
+
+def test_wrong_type_names_the_key_and_the_value(tmp_path: Path) -> None:
+    text = _rig(tmp_path, "").read_text().replace("baud_bps = 921600", 'baud_bps = "fast"')
+    path = tmp_path / "rig2.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as err:
+        load_rig(path)
+    msg = str(err.value)
+    assert "[imu] baud_bps" in msg and "'fast'" in msg
+
+
+def test_unknown_table(tmp_path: Path) -> None:
+    path = _rig(tmp_path, "[motors]\nn = 4\n")
+    with pytest.raises(ConfigError, match=r"top level\] motors: unknown key"):
+        load_rig(path)
+
+
+def test_scenario_errors_name_the_entry(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[scenario]\nname = "x"\nduration_s = 5\n[[sticks]]\nt_s = 1\nchannel = 3\n')
+    with pytest.raises(ConfigError) as err:
+        load_scenario(bad)
+    assert str(bad) in str(err.value) and "sticks.0" in str(err.value) and "exactly one of" in str(err.value)
+
+
+def test_a_fault_the_rig_cannot_apply_is_refused_at_load(tmp_path: Path) -> None:
+    bad = tmp_path / "bad-fault.toml"
+    bad.write_text(
+        '[scenario]\nname = "x"\nduration_s = 5\n'
+        '[[faults]]\nkind = "wire.silence"\nt_s = 1\nport = "gps"\n'
+        '[[criteria]]\nname = "c"\nsignal = "truth.h_m"\nmetric = "max"\nmax = 1\n'
+    )
+    rig = load_rig(None)
+    with pytest.raises(ConfigError) as err:
+        ScenarioRunner(load_scenario(bad), rig, bad)
+    assert str(bad) in str(err.value) and "#0" in str(err.value) and "port" in str(err.value)
