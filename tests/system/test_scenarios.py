@@ -73,3 +73,19 @@ async def test_realtime_mode_runs_on_the_wall_clock(fly) -> None:
     assert t["ticks"] == 801
     assert "lateness_p50_us" in t and "latency_p50_us" in t
     assert t["esc_commands"] > 700  # the flight code kept up and answered (nearly) every sample
+
+
+async def test_report_and_timing_of_a_log(fly, tmp_path: Path) -> None:
+    """`hil report` writes its four PNGs; `hil timing` analyses the same log."""
+    from hil.report import make_report
+    from hil.timing import analyze_log
+
+    result = await fly("hover", duration_s=4.0)
+    assert result.log_path is not None
+    pngs = make_report(result.log_path, tmp_path / "plots")
+    assert [p.name.rsplit("_", 1)[-1] for p in pngs] == ["attitude.png", "altitude.png", "motors.png", "timing.png"]
+    assert all(p.stat().st_size > 10_000 for p in pngs)
+    rep = analyze_log(result.log_path)
+    assert rep.samples == result.timing["ticks"]
+    assert rep.no_command == 0
+    assert rep.latency_us.n == rep.samples and rep.compute_us.n > 100
