@@ -18,6 +18,7 @@ line rate; the bench wants every record due by a tick delivered with that tick).
 
 from __future__ import annotations
 
+import struct
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -88,6 +89,22 @@ def pack_record(rec: CaptureRecord) -> bytes:
     return bytes((CaptureWire.SYNC,)) + body + bytes((crc8(body),))
 
 
+_SYNC = int(CaptureWire.SYNC)
+_LEVEL_HIGH = int(CaptureFlag.LEVEL_HIGH)
+_OVERRUN = int(CaptureFlag.OVERRUN)
+_RECORD = struct.Struct("6B")
+
+
+def pack_fields(seq: int, level: bool, overrun: bool, capture_us: int) -> bytes:
+    """:func:`pack_record` of ``CaptureRecord(seq, level, overrun, capture_us)`` without
+    building the record (the per-edge path): same bytes, the CRC unrolled over the table."""
+    seq &= 0xFF
+    flags = (_LEVEL_HIGH if level else 0) | (_OVERRUN if overrun else 0)
+    lo, hi = capture_us & 0xFF, (capture_us >> 8) & 0xFF
+    t = _CRC8_TABLE
+    return _RECORD.pack(_SYNC, seq, flags, lo, hi, t[t[t[t[seq] ^ flags] ^ lo] ^ hi])
+
+
 def unpack_record(data: bytes) -> CaptureRecord | None:
     """Decode 6 bytes; None if the sync byte, reserved flag bits or CRC are wrong."""
     if len(data) != CaptureWire.RECORD_LEN or data[0] != CaptureWire.SYNC:
@@ -136,30 +153,32 @@ class CaptureFrontEnd(ByteDevice):
     def feed_edges(self, edges: Iterable[PpmEdge]) -> None:
         """Capture ``edges`` (non-decreasing times); records are released by :meth:`advance`."""
         p = self.params
+        counters, uart_starts = self.counters, self._uart_starts
+        min_interval_ns = p.min_capture_interval_us * NS_PER_US
         for edge in edges:
-            if edge.t_ns < self._last_edge_ns:
-                self.counters["edges_out_of_order"] += 1
+            t = edge.t_ns
+            if t < self._last_edge_ns:
+                counters["edges_out_of_order"] += 1
                 continue
-            self._last_edge_ns = edge.t_ns
-            self.counters["edges"] += 1
-            if (self._last_capture_ns is not None
-                    and edge.t_ns - self._last_capture_ns < p.min_capture_interval_us * NS_PER_US):
-                self._lose(edge.t_ns, "latency")
+            self._last_edge_ns = t
+            counters["edges"] += 1
+            if self._last_capture_ns is not None and t - self._last_capture_ns < min_interval_ns:
+                self._lose(t, "latency")
                 continue
-            while self._uart_starts and self._uart_starts[0] <= edge.t_ns:
-                self._uart_starts.popleft()  # already shifted out of the FIFO
-            if len(self._uart_starts) >= p.fifo_records:
-                self._lose(edge.t_ns, "fifo_full")
+            while uart_starts and uart_starts[0] <= t:
+                uart_starts.popleft()  # already shifted out of the FIFO
+            if len(uart_starts) >= p.fifo_records:
+                self._lose(t, "fifo_full")
                 continue
-            self._last_capture_ns = edge.t_ns
-            rec = CaptureRecord(self._seq, edge.level, self._overrun, self.timer_us(edge.t_ns))
+            self._last_capture_ns = t
+            record = pack_fields(self._seq, edge.level, self._overrun, self.timer_us(t))
             self._seq = (self._seq + 1) & 0xFF
             self._overrun = False
-            start = max(edge.t_ns, self._uart_free_ns)
+            start = max(t, self._uart_free_ns)
             self._uart_free_ns = start + self._record_ns
-            if start > edge.t_ns:
-                self._uart_starts.append(start)
-            self._scheduled.append((edge.t_ns, pack_record(rec)))
+            if start > t:
+                uart_starts.append(start)
+            self._scheduled.append((t, record))
 
     def _lose(self, t_ns: int, reason: str) -> None:
         self._overrun = True
