@@ -212,7 +212,7 @@ class Bench:
             else:
                 self.schedule = FaultSchedule(self._faults, devices, log_event=runner.log_event, flight=runner.flight)
                 self._own_schedule = True
-        except Exception as exc:  # must not escape into run_flight_async's set-up
+        except Exception as exc:  # noqa: BLE001 - must not escape into run_flight_async's set-up
             self._setup_error = exc
             self.schedule = FaultSchedule([], devices, log_event=runner.log_event, flight=runner.flight)
             self._own_schedule = True
@@ -229,7 +229,7 @@ class Bench:
                 continue
             try:
                 fut.set_result(action(t_ns))
-            except Exception as exc:
+            except Exception as exc:  # noqa: BLE001 - the test's error, raised in the test
                 fut.set_exception(exc)
 
     def _after_tick(self, k: int, t_ns: int) -> None:
@@ -249,7 +249,7 @@ class Bench:
                 continue
             try:
                 ok = True if w.predicate is None else bool(w.predicate(self))
-            except Exception as exc:
+            except Exception as exc:  # noqa: BLE001 - the predicate's error, raised in the test
                 w.future.set_exception(exc)
                 continue
             due = t_ns >= w.deadline_ns
@@ -318,6 +318,8 @@ class Bench:
         if fut.done():
             return fut.result()
         fut.cancel()
+        if task.cancelled():
+            raise RunEnded(f"the run's task was cancelled before {label}")
         if task.exception() is not None:
             raise task.exception()  # type: ignore[misc]
         r = task.result()
@@ -329,16 +331,16 @@ class Bench:
         """Wait for the first tick (from the next one) at which ``predicate(bench)`` is true;
         return its sim time (s). ``timeout_s`` is sim time: :class:`SimTimeout` after it,
         :class:`RunEnded` if the run ends first."""
-        return await self._watch("until", predicate, int(round(timeout_s * S)), _label_of(predicate))
+        return await self._watch("until", predicate, round(timeout_s * S), _label_of(predicate))
 
     async def always(self, predicate: Predicate, for_s: float) -> float:
         """Check ``predicate(bench)`` at every tick for ``for_s`` of sim time; return the sim
         time (s) at the end, or raise :class:`PredicateFailed` at the first false tick."""
-        return await self._watch("always", predicate, int(round(for_s * S)), _label_of(predicate))
+        return await self._watch("always", predicate, round(for_s * S), _label_of(predicate))
 
     async def run_for(self, seconds: float) -> float:
         """Let ``seconds`` of sim time pass; return the sim time (s) of the tick reached."""
-        return await self._watch("time", None, int(round(seconds * S)), f"{seconds:g} s of sim time")
+        return await self._watch("time", None, round(seconds * S), f"{seconds:g} s of sim time")
 
     async def _at_next_tick(self, action: Callable[[int], Any], label: str) -> Any:
         fut: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
@@ -350,11 +352,15 @@ class Bench:
         """Apply catalogue fault ``kind`` (``hil faults``) at the next tick for the body of the
         block; it ends at the first tick after the block (or after ``duration_s`` of sim time,
         if that comes first). Invalid kinds or parameters raise ``hil.config.ConfigError``."""
+        from hil.faults import CATALOGUE, Timing
+
         schedule = self.schedule
 
         def start(t_ns: int) -> InjectedFault:
             assert schedule is not None
-            return InjectedFault(kind, schedule.start_now(kind, t_ns, duration_s=duration_s, **params), t_ns / S)
+            handle = schedule.start_now(kind, t_ns, duration_s=duration_s, **params)
+            instant = CATALOGUE[kind].timing is Timing.INSTANT  # acted once, already over
+            return InjectedFault(kind, handle, t_ns / S, t_ns / S if instant else None)
 
         injected: InjectedFault = await self._at_next_tick(start, f"the start of fault {kind}")
         try:
@@ -385,9 +391,9 @@ class Bench:
         st = self.devices.plant.state
         r, p, y = st.euler_rpy_rad
         w = st.omega_B_radps
-        return Truth(self.t_s, st.h_m, -st.v_N_mps[2], r * RAD2DEG, p * RAD2DEG, y * RAD2DEG, tuple(st.p_N_m),
-                     tuple(st.v_N_mps), (w[0] * RAD2DEG, w[1] * RAD2DEG, w[2] * RAD2DEG),
-                     tuple(st.rotor_omega_radps), bool(st.on_ground), st.battery_V, st)
+        return Truth(self.t_s, st.h_m, -st.v_N_mps[2], r * RAD2DEG, p * RAD2DEG, y * RAD2DEG, st.p_N_m,
+                     st.v_N_mps, (w[0] * RAD2DEG, w[1] * RAD2DEG, w[2] * RAD2DEG),
+                     st.rotor_omega_radps, bool(st.on_ground), st.battery_V, st)
 
     @property
     def imu_sample(self) -> DeviceEvent | None:
@@ -482,6 +488,8 @@ class Bench:
         task = self._require_task()
         if not task.done():
             raise RuntimeError("the run is still going: await bench.stop() or bench.finish() first")
+        if task.cancelled():
+            raise RuntimeError("the run's task was cancelled from outside the plugin: no result")
         return task.result()
 
     def record(self, topic: str) -> dict[str, Any]:
@@ -646,7 +654,7 @@ class HilBench:
                     dest.parent.mkdir(parents=True, exist_ok=True)
                     shutil.move(result.log_path, dest)
                     self.kept.append(dest)
-            except BaseException as exc:  # stop the others first
+            except BaseException as exc:  # noqa: BLE001 - stop the other benches first, then raise
                 errors.append(exc)
         if self._tmp is not None:
             shutil.rmtree(self._tmp, ignore_errors=True)
@@ -722,4 +730,4 @@ except ImportError:  # pragma: no cover - the test extra brings it
     def hil_bench() -> None:
         pytest.fail("the hil_bench fixture needs pytest-asyncio (pip install 'mav-hil-bench[test]')")
 else:
-    hil_bench = pytest_asyncio.fixture(_hil_bench, name="hil_bench")
+    hil_bench = pytest_asyncio.fixture(_hil_bench, name="hil_bench")  # type: ignore[assignment]

@@ -119,7 +119,7 @@ async def test_stop_scenario_faults_and_live_values(hil_bench) -> None:
     names = [(e["kind"], e["name"], e["t_ns"]) for e in _events(result.log_path)]
     assert ("fault", "telemetry.dropout start", 200_000_000) in names
     assert ("fault", "telemetry.dropout end", 300_000_000) in names
-    assert [n for k, n, _ in names if k == "pytest"][0] == "test"
+    assert next(n for k, n, _ in names if k == "pytest") == "test"
     assert [n for k, n, _ in names if k == "pytest"][-1] == "stop"
     with pytest.raises(RunEnded):
         await bench.run_for(0.1)

@@ -7,7 +7,13 @@ from pathlib import Path
 import pytest
 
 from hil.config import ConfigError
-from hil.pytest_plugin import INLINE_DURATION_S, _label_of, _safe, build_scenario, keep_dir_of
+from hil.pytest_plugin import (
+    INLINE_DURATION_S,
+    _label_of,
+    _safe,
+    build_scenario,
+    keep_dir_of,
+)
 from hil.rig import load_rig
 
 pytest_plugins = ["pytester"]

@@ -86,15 +86,3 @@ def test_failing_test_keeps_its_mcap(pytester: pytest.Pytester, monkeypatch: pyt
     assert "the vehicle never left the ground" in failed[0]["report"]
     assert names.index(("pytest", "test failed")) < names.index(("pytest", "stop"))
     assert os.path.getsize(log) > 10_000
-
-
-def test_keep_all_keeps_passing_logs(pytester: pytest.Pytester, monkeypatch: pytest.MonkeyPatch,
-                                     tmp_path: Path) -> None:
-    monkeypatch.setenv("HIL_PLUGIN_TEST_PIDS", str(tmp_path))
-    pytester.makepyfile(test_user=USER_TESTS.format(rig=RIG))
-    keep = tmp_path / "kept"
-    result = pytester.runpytest_subprocess("--hil-keep-logs", str(keep), "--hil-keep-all", "-k", "test_passes",
-                                           "-p", "no:cacheprovider")
-    result.assert_outcomes(passed=1, deselected=2)
-    assert [p.name for p in keep.iterdir()] == ["test_user.py--test_passes.mcap"]
-    assert read_metadata(keep / "test_user.py--test_passes.mcap")["run"]["scenario"] == "test_passes"
