@@ -123,3 +123,11 @@ async def test_stop_scenario_faults_and_live_values(hil_bench) -> None:
     assert [n for k, n, _ in names if k == "pytest"][-1] == "stop"
     with pytest.raises(RunEnded):
         await bench.run_for(0.1)
+
+    # a second bench of the same test: its own log, run to its own end
+    second = await hil_bench.start(rig=RIG, duration_s=0.2, seed=2)
+    assert second is not bench and second.t_s >= 0.0
+    done = await second.finish()
+    assert done.end_reason is EndReason.COMPLETED and done.seed == 2 and done.sim_s >= 0.2
+    assert done.log_path.name.endswith("live_values-2.mcap") and done.log_path != result.log_path
+    assert hil_bench.keep_path(second).name == done.log_path.name

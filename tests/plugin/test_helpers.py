@@ -98,3 +98,17 @@ def test_keep_dir_option_ini_and_default(pytester: pytest.Pytester, tmp_path: Pa
     config = pytester.parseconfig("--hil-keep-all")
     assert keep_dir_of(config, tmp_path) == Path("/var/tmp/hil")
     assert config.getoption("hil_keep_all") is True
+
+
+def test_users_of_the_fixture_get_the_marker(pytester: pytest.Pytester) -> None:
+    pytester.makepyfile(test_m="""
+        async def test_bench(hil_bench):
+            pass
+
+        def test_plain():
+            pass
+    """)
+    pytester.makeini("[pytest]\nasyncio_default_fixture_loop_scope = function\n")
+    result = pytester.runpytest("--collect-only", "-q", "-m", "not hil_bench", "-p", "no:cacheprovider",
+                                "--strict-markers")
+    result.stdout.fnmatch_lines(["test_m.py::test_plain", "*1/2 tests collected (1 deselected)*"])
