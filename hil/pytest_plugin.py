@@ -608,8 +608,9 @@ class HilBench:
         rig_obj = rig if isinstance(rig, Rig) else load_rig(rig)
         scen, source = build_scenario(rig_obj, scenario, sticks=sticks, flight=flight, duration_s=duration_s,
                                       name=_safe(self.name))
-        run_s = scen.scenario.duration_s if duration_s is None else duration_s
-        faults = load_faults(scen.faults, rig_obj, source=str(source or f"<scenario {scen.name}>"), run_duration_s=run_s)
+        # as `hil run --duration` does: a shorter run keeps the scenario's later faults (unplayed)
+        faults = load_faults(scen.faults, rig_obj, source=str(source or f"<scenario {scen.name}>"),
+                             run_duration_s=scen.scenario.duration_s)
         if self._tmp is None:
             self._tmp = Path(tempfile.mkdtemp(prefix="hil-pytest-"))
         bench = Bench(rig_obj, scen, source=source, seed=seed, duration_s=duration_s, mode=mode,
