@@ -7,7 +7,10 @@ sensor ranges sets the clip bits of the status word and clears "orientation vali
 golden MTi-300 capture shows during a hard shake (0x00481401).
 
 Each configured item is decoded once into a :class:`Planned` record holding the function
-that produces its bytes, so the 400 Hz path does no per-item type dispatch.
+that produces its bytes, so the 400 Hz path does no per-item type dispatch. A list of due
+items whose floats are all float32/float64 is further compiled into one big-endian struct
+(cached per list): the whole payload is then one ``pack`` of the headers and values, the
+same bytes the per-item encoders give.
 """
 
 from __future__ import annotations
@@ -17,7 +20,14 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 from emulators.xsens import legacy
-from emulators.xsens.defs import XDI, XDI_COORD_MASK, XDI_FORMAT_MASK, CoordSys, Precision, StatusFlag
+from emulators.xsens.defs import (
+    XDI,
+    XDI_COORD_MASK,
+    XDI_FORMAT_MASK,
+    CoordSys,
+    Precision,
+    StatusFlag,
+)
 from emulators.xsens.errors import Measured
 from emulators.xsens.frames import (
     Q_IDENTITY,
@@ -35,6 +45,7 @@ from emulators.xsens.frames import (
     vector_in,
 )
 from emulators.xsens.mtdata2 import encode_values, precision_of
+from emulators.xsens.output_config import ITEMS
 from emulators.xsens.params import XsensParams
 
 _CLIP_ACC = (int(StatusFlag.CLIP_ACC_X), int(StatusFlag.CLIP_ACC_Y), int(StatusFlag.CLIP_ACC_Z))
@@ -110,6 +121,10 @@ def _clip(v: Vec3, limit: float, flags: tuple[int, int, int]) -> tuple[Vec3, int
     return (out[0], out[1], out[2]), status
 
 
+#: Most compiled item lists kept per builder (a configuration has one per distinct due set).
+_MAX_PACKERS = 64
+
+
 class SampleBuilder:
     """Turns measured samples into payloads; holds the slowly varying environment."""
 
@@ -118,6 +133,9 @@ class SampleBuilder:
         self.temperature_degC = params.temperature_degC
         self.pressure_Pa = params.pressure_Pa
         self.alignment: tuple[Quat, Quat] = (Q_IDENTITY, Q_IDENTITY)
+        #: ids of a due-item list -> its packer (None: not compilable). Each packer holds
+        #: its items, so the ids in its key cannot be reused by other objects meanwhile.
+        self._packers: dict[tuple[int, ...], _Packer | None] = {}
 
     def saturate(self, m: Measured) -> tuple[Measured, int]:
         """Clip at the sensor ranges; return the clipped sample and its status word."""
@@ -146,6 +164,40 @@ class SampleBuilder:
 
     def mtdata2(self, items: Iterable[Planned], ctx: Ctx) -> Built:
         """MTData2 payload of the planned items due now."""
+        due = tuple(items)
+        key = tuple(map(id, due))
+        packers = self._packers
+        if key in packers:
+            packer = packers[key]
+        else:
+            if len(packers) >= _MAX_PACKERS:
+                packers.clear()
+            packer = packers[key] = _Packer.compile(due)
+        if packer is None:
+            return self.mtdata2_items(due, ctx)
+        args: list[float | int] = []
+        e = r = a = None
+        m = ctx.m
+        for xdi, size, int_value, float_values, it, report in packer.steps:
+            args.append(xdi)
+            args.append(size)
+            if int_value is not None:
+                args.append(int_value(self, ctx))
+                continue
+            assert float_values is not None
+            values = float_values(self, it, m)
+            args.extend(values)
+            if report == "euler":  # a later item of the same kind overrides, as in mtdata2_items
+                e = values
+            elif report == "rate":
+                r = values
+            elif report == "acc":
+                a = values
+        return Built(packer.layout.pack(*args), None if e is None else (e[0], e[1], e[2]),
+                     None if r is None else (r[0], r[1], r[2]), None if a is None else (a[0], a[1], a[2]))
+
+    def mtdata2_items(self, items: Iterable[Planned], ctx: Ctx) -> Built:
+        """:meth:`mtdata2` item by item with each item's encoder (any precision)."""
         out = bytearray()
         reported: dict[str, tuple[float, ...]] = {}
         for it in items:
@@ -177,20 +229,30 @@ class SampleBuilder:
 _Encoded = tuple[bytes, tuple[float, ...] | None]
 
 
-def _int_item(fn: Callable[[SampleBuilder, Ctx], bytes]) -> Callable[[SampleBuilder, Planned, Ctx], _Encoded]:
+_IntValue = Callable[[SampleBuilder, Ctx], int]
+
+#: Integer items: big-endian struct code and value.
+_INT_VALUES: dict[XDI, tuple[str, _IntValue]] = {
+    XDI.PACKET_COUNTER: ("H", lambda b, c: c.packet_counter & 0xFFFF),
+    XDI.SAMPLE_TIME_FINE: ("I", lambda b, c: c.sample_time_fine),
+    XDI.SAMPLE_TIME_COARSE: ("I", lambda b, c: (c.t_device_ns // 1_000_000_000) & 0xFFFF_FFFF),
+    XDI.STATUS_WORD: ("I", lambda b, c: c.status & 0xFFFF_FFFF),
+    XDI.STATUS_BYTE: ("B", lambda b, c: c.status & 0xFF),
+    XDI.BARO_PRESSURE: ("I", lambda b, c: max(0, round(b.pressure_Pa)) & 0xFFFF_FFFF),
+}
+
+
+def _int_item(code: str, fn: _IntValue) -> Callable[[SampleBuilder, Planned, Ctx], _Encoded]:
+    packer = struct.Struct(">" + code)
+
     def encode(b: SampleBuilder, it: Planned, ctx: Ctx) -> _Encoded:
-        return fn(b, ctx), None
+        return packer.pack(fn(b, ctx)), None
 
     return encode
 
 
 _INT_ENCODERS: dict[XDI, Callable[[SampleBuilder, Planned, Ctx], _Encoded]] = {
-    XDI.PACKET_COUNTER: _int_item(lambda b, c: _U16.pack(c.packet_counter & 0xFFFF)),
-    XDI.SAMPLE_TIME_FINE: _int_item(lambda b, c: _U32.pack(c.sample_time_fine)),
-    XDI.SAMPLE_TIME_COARSE: _int_item(lambda b, c: _U32.pack((c.t_device_ns // 1_000_000_000) & 0xFFFF_FFFF)),
-    XDI.STATUS_WORD: _int_item(lambda b, c: _U32.pack(c.status & 0xFFFF_FFFF)),
-    XDI.STATUS_BYTE: _int_item(lambda b, c: bytes((c.status & 0xFF,))),
-    XDI.BARO_PRESSURE: _int_item(lambda b, c: _U32.pack(max(0, round(b.pressure_Pa)) & 0xFFFF_FFFF)),
+    kind: _int_item(code, fn) for kind, (code, fn) in _INT_VALUES.items()
 }
 
 
@@ -230,3 +292,44 @@ def _float_item(fn: Callable[[SampleBuilder, Planned, Measured], tuple[float, ..
 
 
 _ENCODERS = {**_INT_ENCODERS, **{kind: _float_item(fn) for kind, fn in _VALUES.items()}}
+
+
+_FloatValues = Callable[[SampleBuilder, Planned, Measured], tuple[float, ...]]
+_FLOAT_CODES = {Precision.FLOAT32: "f", Precision.FLOAT64: "d"}
+
+
+@dataclass(frozen=True)
+class _Packer:
+    """One list of due items as a single big-endian struct: per item ``H`` (XDI), ``B``
+    (size) and its data. ``steps`` per item: (xdi, size, int value or None, float values
+    or None, the item, its report name)."""
+
+    items: tuple[Planned, ...]
+    layout: struct.Struct
+    steps: tuple[tuple[int, int, _IntValue | None, _FloatValues | None, Planned, str], ...]
+
+    @staticmethod
+    def compile(items: tuple[Planned, ...]) -> _Packer | None:
+        """The packer of ``items``; None if an item needs the per-item path (fixed-point
+        precision, or an encoder other than this module's)."""
+        fmt = ">"
+        steps: list[tuple[int, int, _IntValue | None, _FloatValues | None, Planned, str]] = []
+        for it in items:
+            if _ENCODERS.get(it.kind) is not it.encode:
+                return None
+            if it.kind in _INT_VALUES:
+                code, int_value = _INT_VALUES[it.kind]
+                size = struct.calcsize(">" + code)
+                steps.append((it.xdi, size, int_value, None, it, it.report))
+            else:
+                float_code = _FLOAT_CODES.get(it.precision)
+                if float_code is None:
+                    return None
+                n = ITEMS[it.kind].scalars
+                code = f"{n}{float_code}"
+                size = struct.calcsize(">" + code)
+                steps.append((it.xdi, size, None, _VALUES[it.kind], it, it.report))
+            if size > 255:
+                return None
+            fmt += "HB" + code
+        return _Packer(items, struct.Struct(fmt), tuple(steps))
