@@ -52,6 +52,7 @@ from emulators.buspirate.terminal import Terminal
 from emulators.mcp3204 import Mcp3204
 
 _OK_BYTE = bytes([OK])
+_OK_OK = _OK_BYTE * 2
 _SPI = Mode.SPI
 _LAST_BULK = (SpiGroup.BULK << 4) | 0x0F
 _ERROR_BYTE = bytes([ERROR])
@@ -133,6 +134,11 @@ class BusPirate(ByteDevice):
             if self._cont is not None:
                 self._cont(byte, t_ns)
             elif self.mode is _SPI and self.fast_path and byte <= _LAST_BULK:
+                if byte == SpiCmd.CS_LOW:
+                    end = self._pipelined_transfer(data, i, t_ns)
+                    if end:
+                        i = end
+                        continue
                 self._spi_transaction_byte(byte, t_ns)
             else:
                 self._dispatch(byte, t_ns)
@@ -331,6 +337,29 @@ class BusPirate(ByteDevice):
         else:
             self._send(bytes([ERROR]))
             self._error(t_ns, "unknown_spi_command", byte)
+
+    def _pipelined_transfer(self, data: bytes, i: int, t_ns: int) -> int:
+        """``02 1n <n+1 bytes> 03`` whole at ``data[i - 1:]``: handled as one unit (the same
+        effects, replies and event as its six commands one by one); returns the index after
+        it, or 0 (nothing done) if ``data`` does not hold exactly that."""
+        if i >= len(data) or data[i] >> 4 != SpiGroup.BULK:
+            return 0
+        end = i + 2 + (data[i] & 0x0F)  # index of the 03
+        if end >= len(data) or data[end] != SpiCmd.CS_HIGH:
+            return 0
+        mosi = data[i + 1 : end]
+        self._cs_latch = 0
+        self._apply_lines(t_ns)
+        miso = self._xfer(mosi, t_ns)
+        self._cs_latch = 1
+        self._apply_lines(t_ns)
+        out = self._out
+        out += _OK_OK
+        out += miso
+        out += _OK_BYTE
+        self.counters["bulk_transfers"] += 1
+        self._event(BusPirateSpi(t_ns, bytes(mosi), miso))
+        return end + 1
 
     def _spi_transaction_byte(self, byte: int, t_ns: int) -> None:
         """The SPI commands of a transaction (00..1F: setup, CS, bulk), fewer calls deep
