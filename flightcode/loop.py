@@ -241,9 +241,10 @@ class FlightLoop:
         rc = self.cfg.rc
         i_r, i_p, i_t, i_y = self._ch
         roll_us, pitch_us, thr_us, yaw_us = channels[i_r], channels[i_p], channels[i_t], channels[i_y]
+        center, half = rc.center_us, rc.half_range_us
 
         def unit(pulse: float) -> float:
-            x = (pulse - rc.center_us) / rc.half_range_us
+            x = (pulse - center) / half
             return 1.0 if x > 1.0 else -1.0 if x < -1.0 else x
 
         alt_range = self.cfg.altitude.alt_range_m

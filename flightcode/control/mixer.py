@@ -154,13 +154,14 @@ class Mixer:
             ty = ty if math.isfinite(ty) else 0.0
             tz = tz if math.isfinite(tz) else 0.0
         f_c = fmax * d_c * d_c  # collective per motor: 4 F_max d_c^2 / 4
-        rp = [mr * tx + mp * ty for mr, mp in zip(self._m_roll, self._m_pitch)]
-        yw = [my * tz for my in self._m_yaw]
+        mr, mp, my = self._m_roll, self._m_pitch, self._m_yaw
+        rp = [mr[0] * tx + mp[0] * ty, mr[1] * tx + mp[1] * ty, mr[2] * tx + mp[2] * ty, mr[3] * tx + mp[3] * ty]
+        yw = [my[0] * tz, my[1] * tz, my[2] * tz, my[3] * tz]
         lo_ok, hi_ok = -_EPS_N, fmax + _EPS_N
 
-        thrust = [f_c + r + y for r, y in zip(rp, yw)]
+        thrust = [f_c + rp[0] + yw[0], f_c + rp[1] + yw[1], f_c + rp[2] + yw[2], f_c + rp[3] + yw[3]]
         saturated = False
-        if not all(lo_ok <= f <= hi_ok for f in thrust):
+        if min(thrust) < lo_ok or max(thrust) > hi_ok:
             saturated = True
             base = [f_c + r for r in rp]
             if not all(lo_ok <= f <= hi_ok for f in base):
@@ -177,16 +178,14 @@ class Mixer:
             beta = self._yaw_fraction(base, yw)
             thrust = [b + beta * y for b, y in zip(base, yw)]
 
-        thrust = [fmax if f > fmax else 0.0 if f < 0.0 else f for f in thrust]
-        throttle = tuple(math.sqrt(f / fmax) for f in thrust)
-        applied = (
-            sum(c * f for c, f in zip(self._ny, thrust)),
-            sum(c * f for c, f in zip(self._px, thrust)),
-            sum(c * f for c, f in zip(self._sz, thrust)),
-        )
+        f0, f1, f2, f3 = (fmax if f > fmax else 0.0 if f < 0.0 else f for f in thrust)
+        sqrt, inv = math.sqrt, 1.0 / fmax
+        ny, px, sz = self._ny, self._px, self._sz
         return MixResult(
-            throttle,  # type: ignore[arg-type]  # four motors by construction
-            applied,
+            (sqrt(f0 * inv), sqrt(f1 * inv), sqrt(f2 * inv), sqrt(f3 * inv)),
+            (ny[0] * f0 + ny[1] * f1 + ny[2] * f2 + ny[3] * f3,
+             px[0] * f0 + px[1] * f1 + px[2] * f2 + px[3] * f3,
+             sz[0] * f0 + sz[1] * f1 + sz[2] * f2 + sz[3] * f3),
             saturated,
-            math.sqrt(sum(thrust) / (4.0 * fmax)),
+            sqrt((f0 + f1 + f2 + f3) * 0.25 * inv),
         )

@@ -242,6 +242,12 @@ class BusPirateSpi:
         resync_interval_ns: after a failed in-flight re-entry, the next starts this much sensor
             time later, ns.
         clock: monotonic seconds (``time.monotonic``; tests pass a fake).
+
+    Counters: ``requests`` (transfer writes), ``transfers`` (good replies), ``short``/``bad_ack``
+    (malformed replies), ``late_replies`` (missed the read timeout) and
+    ``late_replies_discarded`` (collected later and thrown away), ``replies_lost`` (owed bytes
+    that never came), ``unexpected_input`` (unowed bytes flushed before a write),
+    ``sync_lost_<reason>``, ``resyncs`` (in-flight re-entries started), ``resync_failures``.
     """
 
     name = "adc"
@@ -310,8 +316,9 @@ class BusPirateSpi:
                                      f"{self.entry_attempts} attempt(s): {reason}")
 
     def lose_sync(self, reason: str) -> None:
-        """The caller found the data wrong (e.g. the MCP3204's null bit): re-enter from the next sample."""
-        self.counters[reason] += 1
+        """The data are wrong (a bad reply, a lost one, the MCP3204's null bit): re-enter from
+        the next sample; counted as ``sync_lost_<reason>``."""
+        self.counters["sync_lost_" + reason] += 1
         self.state = LinkState.WAITING
         self._retry_ns = None
 
@@ -354,11 +361,11 @@ class BusPirateSpi:
         if self._owed:
             if self.clock() - self._pending_since >= self.reply_timeout_s:
                 self.counters["replies_lost"] += 1
-                self.lose_sync("replies_lost_sync")
+                self.lose_sync("reply_lost")
             return False
         if decode_transfers(bytes(self._partial), self._lengths) == "bad_ack":
             self.counters["bad_ack"] += 1
-            self.lose_sync("late_reply_bad")
+            self.lose_sync("bad_late_reply")
             return False
         self.counters["late_replies_discarded"] += 1
         self.state = LinkState.READY
@@ -399,11 +406,11 @@ class BusPirateSpi:
                 self.counters["transfers"] += 1
                 return result
             self.counters[result] += 1
-            self.lose_sync("resync_bad_reply")
+            self.lose_sync("bad_reply")
             return None
         if not acks_ok(reply, lengths):
             self.counters["bad_ack"] += 1
-            self.lose_sync("resync_bad_reply")
+            self.lose_sync("bad_reply")
             return None
         # Late, not lost: the rest is owed and collected before the next write.
         self.counters["late_replies"] += 1

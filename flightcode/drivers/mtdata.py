@@ -173,12 +173,36 @@ def mtdata2_packets(payload: bytes) -> list[tuple[int, bytes]] | None:
     return packets if off == end else None
 
 
+#: The payload a mk4 sends for :func:`mk4_output_configuration`, items in that order: the
+#: per-sample fast path decodes it with one unpack (anything else takes the general path).
+_MK4_PAYLOAD = struct.Struct(">HBH" "HBI" "HB3f" "HB3f" "HB3f" "HBI")  # big-endian, no padding: 64 bytes
+_MK4_HEADERS = ((0, 0x1020, 2), (3, 0x1060, 4), (6, 0x2034, 12), (11, 0x8024, 12), (16, 0x4024, 12),
+                (21, 0xE020, 4))
+
+
+def _decode_mk4_fast(payload: bytes) -> XsensData | None:
+    """The flight code's own mk4 layout in one unpack; None if the payload is laid out otherwise."""
+    if len(payload) != _MK4_PAYLOAD.size:
+        return None
+    v = _MK4_PAYLOAD.unpack(payload)
+    for i, xdi, size in _MK4_HEADERS:
+        if v[i] != xdi or v[i + 1] != size:
+            return None
+    if not math.isfinite(v[8] + v[9] + v[10] + v[13] + v[14] + v[15] + v[18] + v[19] + v[20]):
+        return None  # the general path counts what is wrong
+    return XsensData(v[2], v[5], (v[8], v[9], v[10]), (v[13], v[14], v[15]), (v[18], v[19], v[20]), v[23])
+
+
 def decode_mtdata2(payload: bytes, counters: Counter[str]) -> XsensData | None:
     """Decode an MTData2 payload; None (counted) unless every item the loop needs is present.
 
     Needed: PacketCounter, SampleTimeFine, EulerAngles, RateOfTurn, Acceleration; StatusWord
-    is optional (0 when absent). Unknown XDIs are skipped, malformed packets counted.
+    is optional (0 when absent). Unknown XDIs are skipped, malformed packets counted. The
+    layout the flight code configures is decoded in one unpack (same result).
     """
+    fast = _decode_mk4_fast(payload)
+    if fast is not None:
+        return fast
     packets = mtdata2_packets(payload)
     if packets is None:
         counters["mtdata2_truncated"] += 1

@@ -175,6 +175,10 @@ def test_decode_full_sample() -> None:
     data = mtdata.decode_mtdata2(_mtdata2((1.5, -2.25, 90.0)), Counter())
     assert data == mtdata.XsensData(513, 123456, (1.5, -2.25, 90.0), pytest.approx((0.1, -0.2, 0.3)),
                                   (0.5, 0.25, -9.75), 0x00400003)
+    # the flight code's own layout takes the one-unpack path, with the same result
+    assert mtdata._decode_mk4_fast(_mtdata2((1.5, -2.25, 90.0))) == data
+    assert mtdata._decode_mk4_fast(_mtdata2((1.5, -2.25, 90.0), precision=3)) is None  # float64: general path
+    assert _general(_mtdata2((1.5, -2.25, 90.0))) == data
 
 
 def test_decode_float64_and_fixed_point() -> None:
@@ -216,3 +220,44 @@ def test_legacy_wrong_length_is_counted() -> None:
     counters: Counter[str] = Counter()
     assert mtdata.decode_mtdata_legacy(b"\x00" * 49, 0x0006, 0x80000005, counters) is None
     assert counters["mtdata_bad_length"] == 1
+
+
+@settings(max_examples=60, deadline=None)
+@given(counter=st.integers(0, 0xFFFF), stf=st.integers(0, 0xFFFFFFFF), status=st.integers(0, 0xFFFFFFFF),
+       vals=st.lists(st.floats(width=32), min_size=9, max_size=9),
+       order=st.permutations(range(6)), flip=st.integers(0, 64))
+def test_fast_path_equals_the_general_decoder(counter: int, stf: int, status: int, vals: list[float],
+                                              order: list[int], flip: int) -> None:
+    """The one-unpack path for the flight code's own layout gives exactly what the packet walk
+    gives (including None for NaN/inf), and any other order or a damaged header falls back."""
+    items = [struct.pack(">HBH", 0x1020, 2, counter), struct.pack(">HBI", 0x1060, 4, stf),
+             struct.pack(">HB3f", 0x2034, 12, *vals[0:3]), struct.pack(">HB3f", 0x8024, 12, *vals[3:6]),
+             struct.pack(">HB3f", 0x4024, 12, *vals[6:9]), struct.pack(">HBI", 0xE020, 4, status)]
+    payload = b"".join(items[i] for i in order)
+    if flip < len(payload):  # damage one byte (a header or a value)
+        payload = payload[:flip] + bytes((payload[flip] ^ 0x10,)) + payload[flip + 1 :]
+    assert mtdata.decode_mtdata2(payload, Counter()) == _general(payload)
+
+
+def _general(payload: bytes) -> mtdata.XsensData | None:
+    """The packet walk of decode_mtdata2, independent of the fast path."""
+    packets = mtdata.mtdata2_packets(payload)
+    if packets is None:
+        return None
+    found: dict[int, object] = {}
+    status = 0
+    for xdi, data in packets:
+        kind, precision = xdi & 0xFFF0, xdi & 0x3
+        if kind == 0x1020 and len(data) == 2:
+            found["c"] = struct.unpack(">H", data)[0]
+        elif kind == 0x1060 and len(data) == 4:
+            found["t"] = struct.unpack(">I", data)[0]
+        elif kind in (0x2030, 0x8020, 0x4020):
+            found[hex(kind)] = mtdata._vec3(data, precision)
+        elif kind == 0xE020 and len(data) == 4:
+            status = struct.unpack(">I", data)[0]
+    need = ("c", "t", "0x2030", "0x8020", "0x4020")
+    if any(found.get(k) is None for k in need):
+        return None
+    return mtdata.XsensData(found["c"], found["t"], found["0x2030"], found["0x8020"], found["0x4020"],  # type: ignore[arg-type]
+                            status)
