@@ -130,7 +130,7 @@ class AttitudeParams:
     omega2_radps: float = 15.0
     k0_per_s: float = 2.0
     J_hat_kgm2: float = 0.015
-    tau_ff_s: float = 0.035
+    tau_ff_s: float = 0.020
     u_limit_Nm: float = 0.8
     prefilter_omega_radps: float = 8.0
 
