@@ -3,13 +3,16 @@
 The firmware reads its UART one byte at a time, so does this model: commands may arrive
 pipelined in one write or split across writes; a multi-byte command keeps a continuation
 (``_cont``) that eats the following bytes, and a bulk transfer counts the data bytes it
-still expects (``_bulk_left``). The data bytes of a bulk transfer that arrive together go
-to the MCP3204 in one ``exchange`` (the same edges at the same sim time as one byte at a
-time); ``BusPirate(..., fast_path=False)`` feeds every byte on its own, the reference this
-is tested against (tests/unit/adc/test_fastpath_equivalence.py). Replies go out as the firmware sends them: the
-0x01 of a bulk transfer at once, each MISO byte as its MOSI byte arrives; write-then-read
-answers only after all its write bytes (and 0x00 at once if a length is out of range, after
-which the firmware reads the would-be data bytes as commands, as here).
+still expects (``_bulk_left``). Replies go out as the firmware sends them: the 0x01 of a
+bulk transfer at once, each MISO byte as its MOSI byte arrives; write-then-read answers only
+after all its write bytes (and 0x00 at once if a length is out of range, after which the
+firmware reads the would-be data bytes as commands, as here).
+
+Speed: the data bytes of a bulk transfer that arrive together go to the MCP3204 in one
+``exchange`` (the same edges at the same sim time as one byte at a time), and a whole
+``02 1n <data> 03`` in one write is handled as one unit. ``BusPirate(..., fast_path=False)``
+handles every byte on its own: the reference these are tested against
+(tests/unit/adc/test_fastpath_equivalence.py).
 
 Lines: in SPI mode the outputs start open-drain (HiZ); they can drive the MCP3204 only when
 push-pull is configured (0x8x with w = 1), the pull-ups are on (0x4x with x = 1), or the
@@ -55,8 +58,8 @@ _OK_BYTE = bytes([OK])
 _OK_OK = _OK_BYTE * 2
 _SPI = Mode.SPI
 _LAST_BULK = (SpiGroup.BULK << 4) | 0x0F
-_ERROR_BYTE = bytes([ERROR])
 _MCP_PREFIX = "mcp3204_"
+
 
 @dataclass(frozen=True)
 class BusPirateModeChanged(DeviceEvent):

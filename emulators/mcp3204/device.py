@@ -249,7 +249,8 @@ class Mcp3204:
         pos = self._pos
         first = pos + cpol
         word = self._word
-        value = ((word << 8) >> (24 - first)) & 0xFF if first <= 24 else 0  # zeros past the sequence
+        seq_bits = OUTPUT_SEQUENCE_BITS
+        value = ((word << 8) >> (seq_bits - first)) & 0xFF if first <= seq_bits else 0  # zeros past the end
         end = pos + 8
         if pos < B0_INDEX <= end and self._conv is not None:
             self._complete(t_ns)
