@@ -172,7 +172,7 @@ class KfParams:
     q_a: float = 2.0
     q_d: float = 0.05
     q_b: float = 1e-6
-    r_baro_m2: float = 0.2
+    r_baro_m2: float = 0.33
     r_acc: float = 0.091
     r_rest_vz: float = 0.0025
 
