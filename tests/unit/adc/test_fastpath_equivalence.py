@@ -234,7 +234,7 @@ def test_conversion_completes_before_the_b0_din_check_as_on_the_pins() -> None:
     assert [type(e).__name__ for e in pins.take_events()] == ["Mcp3204Conversion", "Mcp3204ProtocolError"]
 
 
-@settings(deadline=None, max_examples=150)
+@settings(deadline=None, max_examples=300)
 @given(mcp_ops(), st.lists(VOLTAGE, min_size=4, max_size=4), st.sampled_from([0.0, 1e-3]),
        st.booleans(), st.sampled_from([(0.0, 0.0), (1.1, -0.7)]))
 def test_mcp3204_fast_path_matches_the_edge_by_edge_reference(
@@ -323,7 +323,7 @@ def spi_commands(draw: st.DrawFn) -> bytes:
     return draw(st.binary(min_size=1, max_size=3))  # garbage
 
 
-@settings(deadline=None, max_examples=150)
+@settings(deadline=None, max_examples=300)
 @given(st.lists(spi_commands(), min_size=1, max_size=12), st.lists(st.integers(1, 12), max_size=20),
        st.integers(0, 2**16), st.booleans())
 def test_bus_pirate_batched_receive_matches_byte_at_a_time_reference(
