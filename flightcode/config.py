@@ -175,6 +175,7 @@ class KfParams:
     r_baro_m2: float = 0.33
     r_acc: float = 0.091
     r_rest_vz: float = 0.0025
+    rest_after_s: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -341,7 +342,7 @@ def _check(file: str, cfg: FlightConfig) -> None:
         "yaw.kp_Nm_per_radps": cfg.yaw.kp_Nm_per_radps, "yaw.ki_Nm_per_rad": cfg.yaw.ki_Nm_per_rad,
         "altitude.q_z": cfg.altitude.q_z, "altitude.q_vz": cfg.altitude.q_vz, "altitude.q_az": cfg.altitude.q_az,
         "altitude.takeoff_alt_m": cfg.altitude.takeoff_alt_m, "kf.q_a": cfg.kf.q_a, "kf.q_d": cfg.kf.q_d,
-        "kf.q_b": cfg.kf.q_b, "telemetry.max_out_waiting": cfg.telemetry.max_out_waiting,
+        "kf.q_b": cfg.kf.q_b, "kf.rest_after_s": cfg.kf.rest_after_s, "telemetry.max_out_waiting": cfg.telemetry.max_out_waiting,
     }
     for key, value in non_negative.items():
         need(value >= 0, key, f"must be >= 0 (got {value})")

@@ -147,6 +147,7 @@ class FlightLoop:
         self.window = ComputeWindow()
         self._rc_loss_ns = int(cfg.failsafe.rc_loss_s * 1e9)
         self._imu_timeout_ns = int(cfg.failsafe.imu_timeout_s * 1e9)
+        self._rest_after_ns = int(cfg.kf.rest_after_s * 1e9)
         self._tel_slot_ns = self.period_ns * cfg.telemetry.divider
         self._stats_ns = int(cfg.log.stats_period_s * 1e9)
         rc = cfg.rc
@@ -319,7 +320,10 @@ class FlightLoop:
         if self.baro_ref.ready:
             self.kf.predict(self._u_applied)
             self.kf.update(z_baro, a_up)
-            if self.modes.at_rest:  # standing on the ground (the mode of the last sample)
+            # Standing on the ground: at rest since long enough that a landing detected a
+            # little above the ground (from this very estimate) has come down by now.
+            since = self.modes.resting_since_ns
+            if since is not None and t_ns - since >= self._rest_after_ns:
                 self.kf.update_at_rest()
         z_hat, vz_hat, az_hat = self.kf.z_m, self.kf.vz_mps, self.kf.az_mps2
 

@@ -182,6 +182,9 @@ class ModeMachine:
         self._idle = _Hold(_ns(params.auto_disarm_s))
         self._t_ns = 0
         self._interrupted = Mode.DISARMED  # the mode IMU_LOST left (IMU_RESUMED returns to it)
+        #: Sensor time since which the vehicle has been in modes at rest (:data:`AT_REST`)
+        #: without a break, ns; None while it is not. Boot starts at rest at sensor time 0.
+        self.resting_since_ns: int | None = 0
 
     @property
     def motors(self) -> MotorPolicy:
@@ -207,6 +210,10 @@ class ModeMachine:
         elif new is Mode.FAILSAFE_IMU:
             self._interrupted = self.mode
         self.transitions.append(Transition(t_ns, self.mode, new, event))
+        if new not in AT_REST:
+            self.resting_since_ns = None
+        elif self.mode not in AT_REST:
+            self.resting_since_ns = t_ns
         self.mode = new
         for hold in (self._arm, self._disarm, self._landed, self._idle):
             hold.reset()

@@ -154,6 +154,30 @@ def test_estimate_stays_on_the_ground_with_an_accelerometer_offset_then_flies() 
     assert abs(loop.kf.bias_mps2) < 0.3
 
 
+def test_zero_velocity_update_waits_after_a_landing() -> None:
+    # A landing is detected from the estimate itself and may fire a little above the ground:
+    # for kf.rest_after_s after it, no zero-velocity update (the vehicle may still be falling).
+    loop, w, _ = run(lambda t: pilot(t, throttle=1100.0 if t < 4.0 else 1000.0), 1200)
+    assert loop.modes.mode is Mode.FLYING
+    calls: list[int] = []
+    zupt = loop.kf.update_at_rest
+
+    def counted() -> None:
+        calls.append(loop.log.t_ns)
+        zupt()
+
+    loop.kf.update_at_rest = counted  # type: ignore[method-assign]
+    landed_ns = None
+    for _ in range(2400):
+        flying = loop.modes.mode is Mode.FLYING
+        sample = loop.step()
+        if flying and loop.modes.mode is Mode.ARMED:
+            assert sample is not None
+            landed_ns = sample.t_ns
+    assert landed_ns is not None and loop.modes.resting_since_ns == landed_ns
+    assert calls and min(calls) == landed_ns + 1_000_000_000  # exactly rest_after_s later
+
+
 def test_late_imu_samples_in_lockstep_cost_no_flight() -> None:
     # A loaded bench holds the next sample back past the watchdog while sim time stands still:
     # the watchdog fires (motors to minimum), and the sample that then arrives is the next one.

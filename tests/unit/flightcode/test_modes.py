@@ -146,6 +146,24 @@ def test_a_delivery_stall_of_the_imu_resumes_the_interrupted_mode() -> None:
     assert p.run(0.0025) is Mode.DISARMED  # a real gap: re-arm to fly
 
 
+def test_resting_since_marks_the_last_arrival_on_the_ground() -> None:
+    p = Pilot()
+    assert p.m.resting_since_ns == 0  # boot: at rest from the first sample
+    p.run(0.01)
+    p.run(1.1, yaw=2000.0)
+    assert p.m.mode is Mode.ARMED and p.m.resting_since_ns == 0  # disarmed -> armed: still on the ground
+    p.run(0.01, yaw=1500.0, throttle=1200.0, z_ref=2.0)
+    assert p.m.mode is Mode.FLYING and p.m.resting_since_ns is None
+    p.run(1.0, z=2.0)
+    landing_from = p.t
+    p.run(1.2, z_ref=0.0, z=0.1, vz=0.0)
+    assert p.m.mode is Mode.ARMED
+    landed = p.m.transitions[-1]
+    assert landed.event is ModeEvent.LANDED and p.m.resting_since_ns == landed.t_ns > landing_from
+    p.m.imu_lost()
+    assert p.m.resting_since_ns is None
+
+
 def test_imu_loss_during_boot_keeps_booting() -> None:
     m = ModeMachine(ModesParams(), 0.5)
     assert m.imu_lost() is Mode.BOOT
