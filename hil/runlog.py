@@ -13,6 +13,7 @@ import enum
 import math
 import re
 from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 from emulators.base import DeviceEvent
@@ -67,6 +68,8 @@ class RunLogger:
         run_start_unix_ns: int = 0,
     ) -> None:
         self.rec = recorder
+        #: everything recorded during a tick goes out with one queue put (after_tick)
+        self.out = recorder.batch() if recorder is not None else None
         self.run_start_unix_ns = run_start_unix_ns
         self.trace = trace
         self.devices = devices
@@ -96,8 +99,8 @@ class RunLogger:
 
     # -- sources ----------------------------------------------------------------------------------
     def _wire(self, rec: WireRecord) -> None:
-        assert self.rec is not None
-        self.rec.log_wire(rec.port, rec.direction.value, rec.t_ns, rec.t_host_ns, rec.data)
+        assert self.out is not None
+        self.out.log_wire(rec.port, rec.direction.value, rec.t_ns, rec.t_host_ns, rec.data)
         if rec.port == "telemetry" and rec.direction.value == "rx":
             for t_frame in self.telemetry.feed(rec.data):
                 self._telemetry(rec.t_ns, rec.t_host_ns, t_frame)
@@ -106,8 +109,8 @@ class RunLogger:
         for key, value in frame.items():
             if isinstance(value, (int, float)) and not isinstance(value, bool):
                 self.trace.point(f"tm.{key}", t_ns, value)
-        if self.rec is not None:
-            self.rec.log("/fc/telemetry", t_ns, frame, t_host_ns)
+        if self.out is not None:
+            self.out.log("/fc/telemetry", t_ns, frame, t_host_ns)
 
     def on_event(self, port: str, ev: DeviceEvent) -> None:
         # Hot event types (several per tick) are turned into payloads by hand; the generic
@@ -121,10 +124,10 @@ class RunLogger:
                 if 0 <= first + i < 4:
                     cmd[first + i] = q / 4.0
             self._last_cmd_us = tuple(cmd)
-            if self.rec is not None:
-                self.rec.log("/hil/esc/command", ev.t_ns, {"t_ns": ev.t_ns, "targets_us": cmd}, clock.monotonic_ns())
+            if self.out is not None:
+                self.out.log("/hil/esc/command", ev.t_ns, {"t_ns": ev.t_ns, "targets_us": cmd}, clock.monotonic_ns())
             return
-        rec = self.rec
+        rec = self.out
         if rec is None or name in _WIRE_ONLY_EVENTS:
             return
         t_host = clock.monotonic_ns()
@@ -161,12 +164,12 @@ class RunLogger:
 
     def flight_line(self, stream: str, line: str) -> None:
         self.fc_lines += 1
-        if self.rec is None:
+        if self.out is None:
             return
         m = _LOGFMT_LEVEL.search(line)
         level = _FOXGLOVE_LEVEL.get(m.group(1).upper(), 2) if m else (4 if stream == "stderr" else 2)
         t_ns = max(self.devices.t_ns, 0)
-        self.rec.log(
+        self.out.log(
             "/fc/log",
             t_ns,
             {"message": line, "level": level, "name": f"flightcode.{stream}", "file": "", "line": 0},
@@ -174,8 +177,8 @@ class RunLogger:
         )
 
     def event(self, t_ns: int, kind: str, name: str, detail: dict[str, Any]) -> None:
-        if self.rec is not None:
-            self.rec.log(
+        if self.out is not None:
+            self.out.log(
                 "/hil/events",
                 max(t_ns, 0),
                 {"t_ns": t_ns, "kind": kind, "name": name, "detail": _jsonable(detail)},
@@ -199,7 +202,7 @@ class RunLogger:
         )
         armed = tuple(1.0 if e.armed else 0.0 for e in d.escs)
         self.trace.row("esc", t_ns, (*self._last_cmd_us, *d.throttle, *armed))
-        rec = self.rec
+        rec = self.out
         t_host = clock.monotonic_ns()
         if d.rc_frames:
             for frame in d.rc_frames:
@@ -209,16 +212,14 @@ class RunLogger:
                     rec.log("/hil/rc/pulses", frame.t_ns, {"t_ns": frame.t_ns, "pulse_us": pulses, "present": True}, t_host)  # type: ignore[attr-defined]
             d.rc_frames.clear()
         if rec is not None:
+            # PlantState is immutable: its payloads are built on the writer thread
             if k % self.truth_divider == 0:
-                rec.log("/sim/truth", t_ns, self._truth_payload(t_ns, st), t_host)
-                rec.log(
-                    "/hil/esc/output",
-                    t_ns,
-                    {"t_ns": t_ns, "throttle": list(d.throttle), "armed": [bool(a) for a in armed]},
-                    t_host,
-                )
+                rec.log("/sim/truth", t_ns, partial(_truth_payload, t_ns, st), t_host)
+                rec.log("/hil/esc/output", t_ns, partial(_esc_output, t_ns, d.throttle, armed), t_host)
             if k % self.pose_divider == 0:
-                self._pose(t_ns, st, t_host)
+                stamp = divmod(self.run_start_unix_ns + t_ns, 1_000_000_000)
+                rec.log("/tf", t_ns, partial(_tf_payload, stamp, st), t_host)
+                rec.log("/sim/pose", t_ns, partial(_pose_payload, stamp, st), t_host)
             if len(d.latency) > self._lat_i:
                 for lat in d.latency[self._lat_i :]:
                     arrival = lat.t_arrival_host_ns
@@ -238,51 +239,9 @@ class RunLogger:
                 self._lat_i = len(d.latency)
             if k % self.counters_divider == 0:
                 rec.log("/hil/device/counters", t_ns, {"t_ns": t_ns, "counters": self.counters()}, t_host)
+            rec.flush()
         if self.progress is not None and k % self.progress_divider == 0:
             self.progress(t_ns)
-
-    def _truth_payload(self, t_ns: int, st: Any) -> dict[str, Any]:
-        r, p, y = st.euler_rpy_rad
-        return {
-            "t_ns": t_ns,
-            "p_N_m": list(st.p_N_m),
-            "v_N_mps": list(st.v_N_mps),
-            "q_NB": list(st.q_NB),
-            "euler_deg": {"roll": r * RAD2DEG, "pitch": p * RAD2DEG, "yaw": y * RAD2DEG},
-            "omega_B_radps": list(st.omega_B_radps),
-            "rotor_omega_radps": list(st.rotor_omega_radps),
-            "thrust_N": list(st.thrust_N),
-            "h_m": st.h_m,
-            "battery_V": st.battery_V,
-            "battery_A": st.battery_A,
-            "battery_soc": st.battery_soc,
-            "on_ground": bool(st.on_ground),
-            "wind_N_mps": list(st.wind_N_mps),
-            "mass_kg": st.mass_kg,
-        }
-
-    def _pose(self, t_ns: int, st: Any, t_host: int) -> None:
-        assert self.rec is not None
-        # NED/FRD -> ENU/FLU for Foxglove's 3D panel: x_E = y_N, y_E = x_N, z_E = -z_N;
-        # q_ENU_FLU = q_ENU_NED * q_NB * q_FRD_FLU.
-        x, y, z = st.p_N_m
-        qw, qx, qy, qz = _ned_frd_to_enu_flu(st.q_NB)
-        sec, nsec = divmod(self.run_start_unix_ns + t_ns, 1_000_000_000)
-        stamp = {"sec": sec, "nsec": nsec}
-        translation = {"x": y, "y": x, "z": -z}
-        rotation = {"x": qx, "y": qy, "z": qz, "w": qw}
-        self.rec.log(
-            "/tf",
-            t_ns,
-            {"timestamp": stamp, "parent_frame_id": "world", "child_frame_id": "base_link", "translation": translation, "rotation": rotation},
-            t_host,
-        )
-        self.rec.log(
-            "/sim/pose",
-            t_ns,
-            {"timestamp": stamp, "frame_id": "world", "pose": {"position": translation, "orientation": rotation}},
-            t_host,
-        )
 
     # -- end ----------------------------------------------------------------------------------------------
     def counters(self) -> dict[str, dict[str, int]]:
@@ -305,10 +264,10 @@ class RunLogger:
         message: str,
         returncode: int | None,
     ) -> None:
-        if self.rec is None:
+        if self.out is None:
             return
         t_ns = max(self.devices.t_ns, 0)
-        self.rec.log(
+        self.out.log(
             "/hil/verdict",
             t_ns,
             {
@@ -321,6 +280,60 @@ class RunLogger:
             },
             clock.monotonic_ns(),
         )
+        self.out.flush()
+
+
+def _truth_payload(t_ns: int, st: Any) -> dict[str, Any]:
+    r, p, y = st.euler_rpy_rad
+    return {
+        "t_ns": t_ns,
+        "p_N_m": list(st.p_N_m),
+        "v_N_mps": list(st.v_N_mps),
+        "q_NB": list(st.q_NB),
+        "euler_deg": {"roll": r * RAD2DEG, "pitch": p * RAD2DEG, "yaw": y * RAD2DEG},
+        "omega_B_radps": list(st.omega_B_radps),
+        "rotor_omega_radps": list(st.rotor_omega_radps),
+        "thrust_N": list(st.thrust_N),
+        "h_m": st.h_m,
+        "battery_V": st.battery_V,
+        "battery_A": st.battery_A,
+        "battery_soc": st.battery_soc,
+        "on_ground": bool(st.on_ground),
+        "wind_N_mps": list(st.wind_N_mps),
+        "mass_kg": st.mass_kg,
+    }
+
+
+def _esc_output(t_ns: int, throttle: tuple[float, ...], armed: tuple[float, ...]) -> dict[str, Any]:
+    return {"t_ns": t_ns, "throttle": list(throttle), "armed": [bool(a) for a in armed]}
+
+
+def _enu_pose(st: Any) -> tuple[dict[str, float], dict[str, float]]:
+    # NED/FRD -> ENU/FLU for Foxglove's 3D panel: x_E = y_N, y_E = x_N, z_E = -z_N;
+    # q_ENU_FLU = q_ENU_NED * q_NB * q_FRD_FLU.
+    x, y, z = st.p_N_m
+    qw, qx, qy, qz = _ned_frd_to_enu_flu(st.q_NB)
+    return {"x": y, "y": x, "z": -z}, {"x": qx, "y": qy, "z": qz, "w": qw}
+
+
+def _tf_payload(stamp: tuple[int, int], st: Any) -> dict[str, Any]:
+    translation, rotation = _enu_pose(st)
+    return {
+        "timestamp": {"sec": stamp[0], "nsec": stamp[1]},
+        "parent_frame_id": "world",
+        "child_frame_id": "base_link",
+        "translation": translation,
+        "rotation": rotation,
+    }
+
+
+def _pose_payload(stamp: tuple[int, int], st: Any) -> dict[str, Any]:
+    translation, rotation = _enu_pose(st)
+    return {
+        "timestamp": {"sec": stamp[0], "nsec": stamp[1]},
+        "frame_id": "world",
+        "pose": {"position": translation, "orientation": rotation},
+    }
 
 
 def _qmul(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float, float]:
