@@ -158,9 +158,10 @@ class TickLoop:
                 self.k, self.t_ns = k, t_ns
                 if self.before_tick is not None:
                     self.before_tick(k, t_ns)
+                devices.emit_rc_early(t_ns)  # delivered by the kernel while the plant steps
                 devices.actuate_and_step(t_ns)
-                await devices.emit_rc(t_ns)
                 devices.latch_analog(t_ns)
+                await devices.confirm_rc()
                 self._barrier = loop.create_future() if pacer is None else None
                 emitted, due = devices.emit_imu(t_ns)
                 t_emit = clock.monotonic_ns()

@@ -116,6 +116,7 @@ class DeviceSet:
         #: ``poll(t_ns) -> bytes`` releases bytes held back (delay/jitter).
         self.wire_filters: dict[str, list[WireFilter]] = {}
         self.latency: list[LatencySample] = []
+        self._rc_want: int | None = None
         #: timing stress: hold every ADC bridge reply back this long (wall ns; hil/stress.py)
         self.adc_reply_delay_ns = 0
         #: PPM frames generated since the run logger last took them (PpmFrame records)
@@ -255,6 +256,34 @@ class DeviceSet:
         if t_ns > self.plant.t_ns:
             self.plant.step(t_ns, self.throttle)
         self.sensors = self.plant.sensors()
+
+    def emit_rc_early(self, t_ns: int) -> None:
+        """Write the RC bytes due by ``t_ns`` without waiting for delivery.
+
+        The PPM train is a function of the stick script only, so this can run first in the
+        tick; the kernel moves the bytes while the plant steps, and :meth:`confirm_rc`
+        (before the IMU sample) usually finds them delivered already."""
+        self.t_ns = t_ns
+        edges = self.ppm.edges_until(t_ns)
+        frames = self.ppm.take_frames()
+        if frames:
+            self.rc_frames.extend(frames)
+        if edges:
+            self.rc.feed_edges(edges)
+        self.rc.advance(t_ns)
+        out = self._filtered("rc", self.rc.take_output(), t_ns)
+        port = self.ports.get("rc")
+        self._rc_want = port.write_tracked(out) if out and port is not None else None
+        events = self.rc.take_events()
+        if events:
+            self._dispatch("rc", events)
+
+    async def confirm_rc(self) -> None:
+        """Wait until the RC bytes written this tick are readable by the flight code."""
+        port = self.ports.get("rc")
+        if self._rc_want is not None and port is not None:
+            await port.confirm(self._rc_want)
+        self._rc_want = None
 
     async def emit_rc(self, t_ns: int) -> None:
         edges = self.ppm.edges_until(t_ns)

@@ -104,6 +104,14 @@ class Port:
         """Write and wait until the bytes are readable by the client (or timeout)."""
         raise NotImplementedError  # pragma: no cover - abstract
 
+    def write_tracked(self, data: bytes) -> int:  # pragma: no cover - abstract
+        """Write and return a token for :meth:`confirm` (delivery checked later)."""
+        raise NotImplementedError
+
+    async def confirm(self, want: int, timeout_s: float = 0.05) -> bool:  # pragma: no cover - abstract
+        """Wait until the bytes of a :meth:`write_tracked` are readable by the client."""
+        raise NotImplementedError
+
     def close(self) -> None:  # pragma: no cover - abstract
         raise NotImplementedError
 

@@ -109,6 +109,13 @@ class MemoryPort(Port):
         self.write(data)
         return not self._pending
 
+    def write_tracked(self, data: bytes) -> int:
+        self.write(data)
+        return 0
+
+    async def confirm(self, want: int, timeout_s: float = 0.05) -> bool:
+        return not self._pending
+
     def _notify(self, settings: LineSettings) -> None:
         self._line_changed(settings)
 

@@ -168,21 +168,31 @@ class PtyPort(Port):
         return buf[0]
 
     async def write_confirmed(self, data: bytes, timeout_s: float = 0.05) -> bool:
-        """Write, then wait until the client can read every byte.
+        """Write, then wait until the client can read every byte (see :meth:`confirm`)."""
+        return await self.confirm(self.write_tracked(data), timeout_s)
+
+    def write_tracked(self, data: bytes) -> int:
+        """Write and return the client-side byte count to :meth:`confirm` later.
+
+        Splitting the two lets the bench do other work while the kernel's flush work item
+        moves the bytes (a pty write is delivered asynchronously)."""
+        want = self.client_inq() + len(data)
+        self.write(data)
+        return want
+
+    async def confirm(self, want: int, timeout_s: float = 0.05) -> bool:
+        """Wait until the client can read ``want`` bytes (from :meth:`write_tracked`).
 
         Correct only while the client is not reading this port concurrently (the lockstep
-        tick guarantees that: the flight code is blocked on the IMU). The kernel's flush
-        work usually lands within tens of microseconds, so the first wait is a short
-        synchronous spin (an event-loop round trip costs more than that); after
-        ``SPIN_NS`` it yields to the loop. On timeout the delivery is counted in
-        ``stats.delivery_timeouts`` and False is returned.
+        tick guarantees that: the flight code is blocked on the IMU). The flush usually lands
+        within tens of microseconds, so the first wait is a short synchronous spin (an
+        event-loop round trip costs more than that); after ``SPIN_NS`` it yields to the
+        loop. On timeout the delivery is counted in ``stats.delivery_timeouts`` and False is
+        returned.
         """
         from hil import clock  # local: keep the import surface of this module small
 
-        before = self.client_inq()
-        self.write(data)
-        want = before + len(data)
-        if self._pending_blocks(want):
+        if self._pending_blocks(want) or self.client_inq() >= want:
             return True
         start = clock.monotonic_ns()
         spin_until = start + SPIN_NS
