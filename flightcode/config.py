@@ -176,6 +176,8 @@ class KfParams:
     r_acc: float = 0.091
     r_rest_vz: float = 0.0025
     rest_after_s: float = 1.0
+    ground_effect_alt_m: float = 1.0
+    ground_effect_r_scale: float = 25.0
 
 
 @dataclass(frozen=True)
@@ -342,7 +344,8 @@ def _check(file: str, cfg: FlightConfig) -> None:
         "yaw.kp_Nm_per_radps": cfg.yaw.kp_Nm_per_radps, "yaw.ki_Nm_per_rad": cfg.yaw.ki_Nm_per_rad,
         "altitude.q_z": cfg.altitude.q_z, "altitude.q_vz": cfg.altitude.q_vz, "altitude.q_az": cfg.altitude.q_az,
         "altitude.takeoff_alt_m": cfg.altitude.takeoff_alt_m, "kf.q_a": cfg.kf.q_a, "kf.q_d": cfg.kf.q_d,
-        "kf.q_b": cfg.kf.q_b, "kf.rest_after_s": cfg.kf.rest_after_s, "telemetry.max_out_waiting": cfg.telemetry.max_out_waiting,
+        "kf.q_b": cfg.kf.q_b, "kf.rest_after_s": cfg.kf.rest_after_s,
+        "kf.ground_effect_alt_m": cfg.kf.ground_effect_alt_m, "telemetry.max_out_waiting": cfg.telemetry.max_out_waiting,
     }
     for key, value in non_negative.items():
         need(value >= 0, key, f"must be >= 0 (got {value})")
@@ -385,6 +388,8 @@ def _check(file: str, cfg: FlightConfig) -> None:
     need(0 <= cfg.telemetry.dest16 <= 0xFFFF, "telemetry.dest16", "must be a 16-bit address")
     need(not cfg.telemetry.enable or cfg.ports.telemetry is not None, "ports.telemetry",
          "missing (telemetry.enable is true)")
+    need(cfg.kf.ground_effect_r_scale >= 1.0, "kf.ground_effect_r_scale",
+         f"must be >= 1 (1 = no ground-effect allowance; got {cfg.kf.ground_effect_r_scale})")
     need(cfg.failsafe.imu_timeout_s > cfg.T_s, "failsafe.imu_timeout_s", "must be longer than one sample period")
 
 

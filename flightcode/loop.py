@@ -319,7 +319,12 @@ class FlightLoop:
             a_up = -f_N_z - G0_MPS2
         if self.baro_ref.ready:
             self.kf.predict(self._u_applied)
-            self.kf.update(z_baro, a_up)
+            # In ground effect the rotor wash over the static port makes the barometer read
+            # low: flying (the last sample's mode) below ground_effect_alt_m, trust it less.
+            in_ground_effect = self.modes.controllers_active and self.kf.z_m < cfg.kf.ground_effect_alt_m
+            if in_ground_effect and z_baro is not None:
+                self.counters["baro_in_ground_effect"] += 1
+            self.kf.update(z_baro, a_up, cfg.kf.ground_effect_r_scale if in_ground_effect else 1.0)
             # Standing on the ground: at rest since long enough that a landing detected a
             # little above the ground (from this very estimate) has come down by now.
             since = self.modes.resting_since_ns

@@ -168,9 +168,9 @@ class AltitudeKF:
         np.multiply(k[:, None], ph[None, :], out=self._m55)
         self._P -= self._m55
 
-    def _update_baro(self, z_baro_m: float) -> None:
+    def _update_baro(self, z_baro_m: float, r_m2: float) -> None:
         np.copyto(self._ph, self._P[:, 0])
-        self._scalar_update(z_baro_m - float(self._x[0]), float(self._ph[0]), self.r_baro_m2)
+        self._scalar_update(z_baro_m - float(self._x[0]), float(self._ph[0]), r_m2)
 
     def _update_acc(self, a_up_mps2: float) -> None:
         P, ph, x = self._P, self._ph, self._x
@@ -178,16 +178,17 @@ class AltitudeKF:
         ph += P[:, 4]
         self._scalar_update(a_up_mps2 - float(x[2] + x[3] + x[4]), float(ph[2] + ph[3] + ph[4]), self.r_acc)
 
-    def update(self, z_baro_m: float | None, a_up_mps2: float | None) -> None:
+    def update(self, z_baro_m: float | None, a_up_mps2: float | None, baro_r_scale: float = 1.0) -> None:
         """Correct with this tick's measurements; ``None`` (or non-finite) means missing.
 
         Args:
             z_baro_m: barometric altitude, m, up positive.
             a_up_mps2: vertical acceleration from the accelerometer, m/s^2, up positive.
+            baro_r_scale: this reading's variance is ``r_baro_m2`` times this (> 1: trusted less).
         """
         if z_baro_m is not None:
             if math.isfinite(z_baro_m):
-                self._update_baro(z_baro_m)
+                self._update_baro(z_baro_m, self.r_baro_m2 * baro_r_scale)
             else:
                 self.counters["nonfinite_baro"] += 1
         if a_up_mps2 is not None:

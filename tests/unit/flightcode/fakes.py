@@ -411,7 +411,8 @@ class FakeWorld:
 
     def __init__(self, sticks: Callable[[float], list[float] | None], *, legacy_imu: bool = False,
                  rc_frontend: str = "capture", seed: int = 1, motor_tau_s: float = 0.0,
-                 accel_zero_g_error_V: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+                 accel_zero_g_error_V: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 baro_ground_effect_m: float = 0.0) -> None:
         #: wall clock of the lockstep: a tick per sample, a read timeout per starved ADC read
         self.clock = FakeClock()
         self.ports = {name: FakeSerial(name, self.clock, 0.02 if name == "adc" else 0.0)
@@ -425,6 +426,9 @@ class FakeWorld:
         self.plant = PlantState()
         self.motor_tau_s = motor_tau_s
         self.accel_zero_g_error_V = accel_zero_g_error_V  # ADXL335 zero-g offsets of this unit (sensor X, Y, Z)
+        #: rotor wash at the static port: the baro reads this much low on the ground at hover
+        #: thrust, decaying over 0.5 m of height (the bench plant's form)
+        self.baro_ground_effect_m = baro_ground_effect_m
         self._thrust_N = [0.0] * 4  # with motor lag: the thrust each motor actually gives
         self.k = -1  # index of the last emitted tick
         self.imu_silent_ticks: set[int] = set()
@@ -480,7 +484,8 @@ class FakeWorld:
 
     def _adc_code(self, channel: int) -> int:
         if channel == 0:
-            h = self.FIELD_ALT_M + self.plant.z_m
+            wash_m = self.baro_ground_effect_m * sum(self.thrusts_N()) / (self.M_KG * G) * math.exp(-self.plant.z_m / 0.5)
+            h = self.FIELD_ALT_M + self.plant.z_m - wash_m
             p_kpa = 101.325 * (1.0 - 2.25577e-5 * h) ** 5.25588
             v = 5.0 * (0.009 * p_kpa - 0.095)
             v_adc = 16.0 * (v - 3.834625) + self.rng.normal(0.0, 0.0005)
