@@ -148,6 +148,7 @@ class FlightLoop:
         self._rc_loss_ns = int(cfg.failsafe.rc_loss_s * 1e9)
         self._imu_timeout_ns = int(cfg.failsafe.imu_timeout_s * 1e9)
         self._rest_after_ns = int(cfg.kf.rest_after_s * 1e9)
+        self._rest_anchored_ns: int | None = None  # the rest period whose start was handled
         self._tel_slot_ns = self.period_ns * cfg.telemetry.divider
         self._stats_ns = int(cfg.log.stats_period_s * 1e9)
         rc = cfg.rc
@@ -329,6 +330,10 @@ class FlightLoop:
             # little above the ground (from this very estimate) has come down by now.
             since = self.modes.resting_since_ns
             if since is not None and t_ns - since >= self._rest_after_ns:
+                if since != self._rest_anchored_ns:  # a new rest period
+                    self._rest_anchored_ns = since
+                    if since > 0:  # after a flight: the touchdown may have fooled the estimate
+                        self.kf.loosen_height(cfg.kf.r_baro_m2)
                 self.kf.update_at_rest()
         z_hat, vz_hat, az_hat = self.kf.z_m, self.kf.vz_mps, self.kf.az_mps2
 

@@ -23,7 +23,9 @@ that misses the read timeout is *late*, not lost; its remaining bytes are collec
 ack pattern checked) before the next write, so a late reply costs one sample's data and is
 never read as the next sample's. Only a reply of the wrong shape, or one that does not arrive
 within ``reply_timeout_s``, starts a re-entry, which in flight runs one non-blocking step per
-sample (:meth:`BusPirateSpi.transfer_encoded`) instead of stalling the loop.
+sample (:meth:`BusPirateSpi.transfer_encoded`) instead of stalling the loop. After a garbled
+reply (how much of it is still to come is unknown) the re-entry waits ``reply_timeout_s``
+first: a reply later than that counts as lost, so none can be mistaken for a later sample's.
 """
 
 from __future__ import annotations
@@ -274,6 +276,7 @@ class BusPirateSpi:
         self._owed = 0
         self._lengths: tuple[int, ...] = ()
         self._pending_since = 0.0
+        self._stale_until = 0.0  # no re-entry before this (clock): a garbled reply's rest may come
 
     @property
     def in_sync(self) -> bool:
@@ -315,17 +318,29 @@ class BusPirateSpi:
         raise DeviceError(self.name, f"Bus Pirate did not enter binary SPI mode after "
                                      f"{self.entry_attempts} attempt(s): {reason}")
 
-    def lose_sync(self, reason: str) -> None:
-        """The data are wrong (a bad reply, a lost one, the MCP3204's null bit): re-enter from
-        the next sample; counted as ``sync_lost_<reason>``."""
+    def lose_sync(self, reason: str, *, reply_in_flight: bool = False) -> None:
+        """The data are wrong (a bad reply, a lost one, the MCP3204's null bit): re-enter;
+        counted as ``sync_lost_<reason>``.
+
+        ``reply_in_flight``: part of a transfer reply may still be on its way (the reply was
+        garbled, so how much of it came is unknown). A late reply has the shape of a good one
+        and would be read as the data of a later sample, so the re-entry waits until
+        ``reply_timeout_s`` after this moment (a reply later than that is lost by definition)
+        and then drains the line as usual.
+        """
         self.counters["sync_lost_" + reason] += 1
         self.state = LinkState.WAITING
         self._retry_ns = None
+        if reply_in_flight:
+            self._stale_until = self.clock() + self.reply_timeout_s
 
     def _poll_entry(self, t_ns: int) -> bool:
         """One non-blocking step of the in-flight re-entry; True once the bridge is ready."""
         if self.state is LinkState.WAITING:
             if self._retry_ns is not None and t_ns < self._retry_ns:
+                return False
+            if self.clock() < self._stale_until:
+                self.counters["samples_waiting_stale"] += 1
                 return False
             self.counters["resyncs"] += 1
             self._begin_entry()
@@ -365,7 +380,7 @@ class BusPirateSpi:
             return False
         if decode_transfers(bytes(self._partial), self._lengths) == "bad_ack":
             self.counters["bad_ack"] += 1
-            self.lose_sync("bad_late_reply")
+            self.lose_sync("bad_late_reply", reply_in_flight=True)
             return False
         self.counters["late_replies_discarded"] += 1
         self.state = LinkState.READY
@@ -406,11 +421,11 @@ class BusPirateSpi:
                 self.counters["transfers"] += 1
                 return result
             self.counters[result] += 1
-            self.lose_sync("bad_reply")
+            self.lose_sync("bad_reply", reply_in_flight=True)
             return None
         if not acks_ok(reply, lengths):
             self.counters["bad_ack"] += 1
-            self.lose_sync("bad_reply")
+            self.lose_sync("bad_reply", reply_in_flight=True)
             return None
         # Late, not lost: the rest is owed and collected before the next write.
         self.counters["late_replies"] += 1

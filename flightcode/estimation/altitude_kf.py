@@ -197,6 +197,16 @@ class AltitudeKF:
             else:
                 self.counters["nonfinite_acc"] += 1
 
+    def loosen_height(self, z_var_m2: float) -> None:
+        """Make the height as uncertain as ``z_var_m2`` (m^2) and uncorrelated with the other
+        states (still a valid covariance), so the next barometer readings re-anchor it: for
+        a vehicle that has just come to rest after a touchdown the accelerometer missed (a
+        hard landing saturates it)."""
+        P = self._P
+        P[0, :] = 0.0
+        P[:, 0] = 0.0
+        P[0, 0] = float(z_var_m2)
+
     def update_at_rest(self) -> None:
         """The vehicle stands on the ground: fuse z' = 0 (variance ``r_rest_vz``)."""
         np.copyto(self._ph, self._P[:, 1])

@@ -180,12 +180,30 @@ def test_garbage_inside_a_reply_resyncs_without_stalling_and_recovers() -> None:
     reader, bridge, port, clock, out = make(noisy)
     bridge.enter_spi()
     t0 = clock.now_s
-    got = run(reader, port, clock, 0, 120)
+    got = run(reader, port, clock, 0, 600)
     assert bridge.counters["bad_ack"] == 1 and bridge.counters["resyncs"] == 1
     assert "event=adc.resynced" in out.getvalue()
     assert got[-1] is not None
-    # the re-entry is spread over samples: no call blocked longer than one read timeout
-    assert clock.now_s - t0 <= 120 * TICK_WALL_S + 2 * READ_TIMEOUT_S
+    # the re-entry waited reply_timeout_s for the garbled reply's rest, then drained quiet_s
+    first_back = next(k for k in range(7, 600) if got[k] is not None)
+    assert first_back * TICK_WALL_S >= 0.2 + 0.03
+    # the wait and the re-entry are spread over samples: no call blocked longer than a read timeout
+    assert clock.now_s - t0 <= 600 * TICK_WALL_S + 2 * READ_TIMEOUT_S
+
+
+def test_a_garbled_reply_whose_rest_comes_late_is_not_read_after_the_resync() -> None:
+    # Found by LoadedBench: a noise byte lands in front of a reply that is itself 100 ms late.
+    # The garbled reply starts a re-entry; the real reply then arrives after it, in the middle
+    # of a later transfer, and has the shape of a good one. The re-entry must wait it out.
+    def late(i: int, data: bytes, now: float) -> list[tuple[float, bytes]]:
+        return [(now + (0.1 if i == len(SETUP) else 50e-6), data)]  # the first transfer
+
+    reader, bridge, port, clock, _ = make(late)
+    bridge.enter_spi()
+    port.inject(b"\x00", after_s=0.001)
+    got = run(reader, port, clock, 0, 800)  # asserts that no sample is misread
+    assert bridge.counters["bad_ack"] == 1 and bridge.counters["samples_waiting_stale"] > 100
+    assert got[-1] is not None and bridge.counters["resyncs"] == 1
 
 
 def test_a_lost_reply_is_given_up_after_reply_timeout_and_the_bridge_reentered() -> None:
@@ -212,7 +230,7 @@ def test_a_lost_reply_is_given_up_after_reply_timeout_and_the_bridge_reentered()
 
 # -- any schedule: never a misread, always recovers -----------------------------------------------------
 @settings(max_examples=25, deadline=None)
-@given(delays=st.lists(st.sampled_from([50e-6, 0.004, 0.019, 0.021, 0.05, 0.12, 0.3]), min_size=1, max_size=30),
+@given(delays=st.lists(st.sampled_from([50e-6, 0.004, 0.019, 0.021, 0.05, 0.12, 0.19]), min_size=1, max_size=30),
        splits=st.lists(st.integers(1, 23), max_size=30), garbage=st.lists(st.binary(max_size=4), max_size=30))
 def test_any_delivery_schedule_never_misreads_and_recovers(delays: list[float], splits: list[int],
                                                            garbage: list[bytes]) -> None:
@@ -255,7 +273,7 @@ class LoadedBench(RuleBasedStateMachine):
         run(self.reader, self.port, self.clock, self.k, 1)
         self.k += 1
 
-    @rule(delay_s=st.sampled_from([0.021, 0.04, 0.1, 0.25]))
+    @rule(delay_s=st.sampled_from([0.021, 0.04, 0.1, 0.19]))  # within reply_timeout_s: late, not lost
     def next_reply_late(self, delay_s: float) -> None:
         self.next_delay = delay_s
 
