@@ -222,3 +222,26 @@ def test_rejects_bad_noise(model: AltitudeModel) -> None:
         AltitudeKF(model, r_baro_m2=0.0)
     with pytest.raises(ValueError):
         AltitudeKF(model, q_a=-1.0)
+
+
+def test_loosened_height_is_re_anchored_by_the_barometer_at_rest(model: AltitudeModel) -> None:
+    """After a hard landing the estimate can be 0.7 m off while its covariance says a few cm
+    (the bench's mission run); at rest the zero-velocity update then freezes the error.
+    Loosening the height first lets the barometer put it right within a second."""
+
+    def settle(loosen: bool) -> float:
+        rng = np.random.default_rng(8)
+        kf = AltitudeKF(model, r_baro_m2=0.33)
+        kf.reset(0.7, z_var_m2=0.002)  # confidently wrong: the truth is 0 m
+        if loosen:
+            kf.loosen_height(0.33)
+            assert kf.P[0, 0] == 0.33 and not kf.P[0, 1:].any() and not kf.P[1:, 0].any()
+            assert np.all(np.linalg.eigvalsh(kf.P) >= 0.0)
+        for _ in range(400):
+            kf.predict(0.0)
+            kf.update(float(rng.normal(0.0, 0.44)), float(rng.normal(0.0, 0.05)))
+            kf.update_at_rest()
+        return abs(kf.z_m)
+
+    assert settle(loosen=False) > 0.3
+    assert settle(loosen=True) < 0.1
