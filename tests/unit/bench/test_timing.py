@@ -1,0 +1,96 @@
+"""Loop timing analysis on synthetic data with known jitter (arrays and a written MCAP),
+and the scenario [timing] budgets."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hil.record import Recorder
+from hil.scenario import Scenario, ScenarioHeader
+from hil.scenario_runner import ScenarioRunner
+from hil.timing import analyze_arrays, analyze_log
+
+PERIOD_NS = 2_500_000
+
+
+def _synthetic(n: int = 4000, seed: int = 7) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Latency 300 us with 8 late samples at 3000 us and 2 missing commands; IMU emit
+    times = nominal period + gaussian jitter of 50 us (so periods jitter by sqrt(2) 50 us)."""
+    rng = np.random.default_rng(seed)
+    latency = np.full(n, 300.0)
+    latency[rng.choice(n, 8, replace=False)] = 3000.0
+    missing = rng.choice(n, 2, replace=False)
+    latency[missing] = -1.0
+    emit = 1_000_000_000 + np.arange(n, dtype=np.int64) * PERIOD_NS + rng.normal(0, 50_000, n).astype(np.int64)
+    arrival = emit + (np.where(latency > 0, latency, 0) * 1000).astype(np.int64)
+    arrival[missing] = -1
+    return latency, arrival, emit
+
+
+def test_known_distribution() -> None:
+    latency, arrival, _ = _synthetic()
+    rep = analyze_arrays(latency, arrival, compute_us=np.full(100, 80.0), budget_us=2500.0)
+    assert rep.samples == 4000
+    assert rep.no_command == 2
+    assert rep.misses == 8
+    assert rep.latency_us.p50 == 300.0
+    assert rep.latency_us.max == 3000.0
+    # period jitter: difference of two N(0, 50 us) emit times -> sigma 70.7 us; |.| p50 = 0.674 sigma
+    assert rep.jitter_us.p50 == pytest.approx(0.674 * 50 * math.sqrt(2), rel=0.15)
+    assert rep.period_us.p50 == pytest.approx(2500.0, abs=20.0)
+    assert rep.compute_us.p50 == 80.0
+
+
+def test_from_a_written_log(tmp_path: Path) -> None:
+    latency, arrival, emit = _synthetic(1000)
+    path = tmp_path / "synthetic.mcap"
+    rec = Recorder(path, run_start_unix_ns=1_700_000_000_000_000_000, metadata={"rig": "t", "scenario": "t", "seed": "1"})
+    rec.start()
+    for k in range(1000):
+        rec.log(
+            "/hil/timing/tick",
+            k * PERIOD_NS,
+            {
+                "k": k,
+                "t_ns": k * PERIOD_NS,
+                "imu_emit_host_ns": int(emit[k]),
+                "esc_arrival_host_ns": int(arrival[k]),
+                "latency_us": float(latency[k]),
+                "miss": bool(latency[k] < 0),
+            },
+            int(emit[k]),
+        )
+    rec.close()
+    rep = analyze_log(path)
+    direct = analyze_arrays(latency, arrival)
+    assert rep.samples == 1000
+    assert rep.latency_us == direct.latency_us
+    assert rep.misses == direct.misses and rep.no_command == direct.no_command
+
+
+def _runner_with(budgets: dict[str, float]) -> ScenarioRunner:
+    from hil.rig import load_rig
+
+    sc = Scenario(scenario=ScenarioHeader(name="t", duration_s=1.0), timing=budgets)
+    return ScenarioRunner(sc, load_rig(None))
+
+
+def test_budgets_pass_and_fail() -> None:
+    runner = _runner_with({"latency_p99_us_max": 2500.0, "barrier_misses_max": 0.0})
+    ok = runner.timing_criteria({"latency_p99_us": 900.0, "barrier_misses": 0.0}, None)
+    assert [c.passed for c in ok] == [True, True]
+    bad = runner.timing_criteria({"latency_p99_us": 3100.0, "barrier_misses": 2.0}, None)
+    assert [c.passed for c in bad] == [False, False]
+    missing = runner.timing_criteria({}, None)
+    assert not any(c.passed for c in missing) and "no latency_p99_us figure" in missing[0].detail
+
+
+def test_unknown_budget_is_refused() -> None:
+    from hil.config import ConfigError
+
+    with pytest.raises(ConfigError, match="unknown budget"):
+        _runner_with({"latency_p42_us_max": 1.0})
