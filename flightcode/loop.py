@@ -37,9 +37,14 @@ from flightcode.control.memory_attitude import MemoryAttitudeController, MemoryG
 from flightcode.control.mixer import Mixer
 from flightcode.control.reference import Prefilter3, RefState
 from flightcode.control.yaw_rate import YawRateController
-from flightcode.drivers.analog import G0_MPS2, AccelRestOffset, AnalogChain, BaroReference
-from flightcode.drivers.buspirate_spi import BusPirateSpi
+from flightcode.drivers.analog import (
+    G0_MPS2,
+    AccelRestOffset,
+    AnalogChain,
+    BaroReference,
+)
 from flightcode.drivers.base import SerialLike
+from flightcode.drivers.buspirate_spi import BusPirateSpi
 from flightcode.drivers.maestro import MaestroEsc
 from flightcode.drivers.mcp3204 import Mcp3204Reader
 from flightcode.drivers.ppm_capture import CaptureRcInput

@@ -77,7 +77,7 @@ def test_entry_waits_for_a_slow_stream_of_bbio1_to_end() -> None:
             return [(now + 0.01 * (j + 1), data[5 * j : 5 * j + 5]) for j in range(len(data) // 5)]
         return prompt(i, data, now)
 
-    _, bridge, port, _, out = make(trickle, mode=Mode.SPI)
+    _, bridge, _, _, out = make(trickle, mode=Mode.SPI)
     bridge.enter_spi()
     assert bridge.in_sync and "attempts=1" in out.getvalue() and "drained=100" in out.getvalue()
 
@@ -107,7 +107,7 @@ def test_a_stray_byte_after_a_setup_ack_fails_the_attempt() -> None:
 
 
 def test_dead_bridge_fails_boot_naming_the_adc_after_bounded_waits() -> None:
-    _, bridge, port, clock, _ = make(lambda i, d, now: [], attempts=2)
+    _, bridge, _, clock, _ = make(lambda i, d, now: [], attempts=2)
     with pytest.raises(DeviceError) as err:
         bridge.enter_spi()
     assert err.value.device == "adc" and "after 2 attempt(s): no BBIO1 after 00 (got nothing)" in err.value.reason

@@ -173,7 +173,7 @@ def test_barometer_in_ground_effect_counts_less_at_take_off() -> None:
 def test_zero_velocity_update_waits_after_a_landing() -> None:
     # A landing is detected from the estimate itself and may fire a little above the ground:
     # for kf.rest_after_s after it, no zero-velocity update (the vehicle may still be falling).
-    loop, w, _ = run(lambda t: pilot(t, throttle=1100.0 if t < 4.0 else 1000.0), 1200)
+    loop, _, _ = run(lambda t: pilot(t, throttle=1100.0 if t < 4.0 else 1000.0), 1200)
     assert loop.modes.mode is Mode.FLYING
     calls: list[int] = []
     zupt = loop.kf.update_at_rest

@@ -6,7 +6,17 @@ from hypothesis import settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, rule
 
-from flightcode.modes import AT_REST, MOTORS, RESUME, TRANSITIONS, Mode, ModeEvent, ModeMachine, ModesParams, MotorPolicy
+from flightcode.modes import (
+    AT_REST,
+    MOTORS,
+    RESUME,
+    TRANSITIONS,
+    Mode,
+    ModeEvent,
+    ModeMachine,
+    ModesParams,
+    MotorPolicy,
+)
 
 TICK = 2_500_000
 S = 1_000_000_000
