@@ -161,7 +161,10 @@ class TickLoop:
                 devices.emit_rc_early(t_ns)  # delivered by the kernel while the plant steps
                 devices.actuate_and_step(t_ns)
                 devices.latch_analog(t_ns)
-                await devices.confirm_rc()
+                if pacer is None:
+                    # lockstep only: the flight code is blocked on the IMU, so the RC bytes
+                    # can be seen arriving; in realtime it reads them whenever they come
+                    await devices.confirm_rc()
                 self._barrier = loop.create_future() if pacer is None else None
                 emitted, due = devices.emit_imu(t_ns)
                 t_emit = clock.monotonic_ns()

@@ -53,9 +53,16 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
     from hil.record.perf import measure_recording
     from hil.run import run_flight
 
+    from hil.rig import load_rig
+
     rep = PerfReport()
-    plant = measure_tick_cost(20_000)
-    rep.add("plant tick (median)", plant["median_us"], "us", f"p99 {plant['p99_us']:.3g} us; 2.5 ms budget")
+    rig_plant = load_rig(None).plant
+    plant = measure_tick_cost(20_000, params=rig_plant)
+    rep.add(
+        "plant tick (median)", plant["tick_median_us"], "us",
+        f"p99 {plant['tick_p99_us']:.3g} us; {plant['substeps']:.0f} RK4 sub-steps (default rig); "
+        f"{plant['budget_pct']:.1f} % of the 2.5 ms tick",
+    )
     with tempfile.TemporaryDirectory() as tmp:
         rec = measure_recording(Path(tmp))
         rep.add("record log() call (median)", rec.log_us_median, "us", f"p99 {rec.log_us_p99:.3g} us, on the tick path")
