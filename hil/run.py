@@ -32,7 +32,7 @@ from hil.config import ConfigError, load_toml
 from hil.criteria import CriterionResult, evaluate
 from hil.devices import DeviceSet
 from hil.flightproc import FlightProcess, expand_command
-from hil.record import Recorder
+from hil.record.process import ProcessRecorder
 from hil.rig import Rig, load_rig
 from hil.runlog import RunLogger
 from hil.scenario import Scenario, load_scenario
@@ -192,12 +192,12 @@ async def run_flight_async(
     devices.attach(dict(ports))
 
     run_start_unix_ns = clock.wall_ns()
-    recorder: Recorder | None = None
+    recorder: ProcessRecorder | None = None
     if record:
         out_dir = Path(out_dir or "logs")
         out_dir.mkdir(parents=True, exist_ok=True)
         log_path = log_path or default_log_path(out_dir, rig, scenario, seed)
-        recorder = Recorder(
+        recorder = ProcessRecorder(
             log_path,
             run_start_unix_ns=run_start_unix_ns,
             metadata=_metadata(rig, scenario, seed, mode, duration_ns),

@@ -1,0 +1,258 @@
+"""The recorder in its own process: the tick path pays one pickle per tick, nothing more.
+
+A :class:`~hil.record.writer.Recorder` in a thread shares the bench's GIL: while its
+writer encodes and compresses, the event loop waits for the GIL when the flight code's ADC
+request arrives, and that wait lands in the flight code's response time (measured on the
+bench: ~360 -> ~650 us median). Here the same Recorder runs in a forked child; the bench
+gathers a tick's messages into a list, pickles it (tens of microseconds) and hands the
+bytes to a small sender thread that only does blocking ``os.write`` calls (which release
+the GIL). Deferred payloads (callables) are pickled as they are and built in the child.
+
+Crash safety is the Recorder's: the child gets SIGKILL with the bench (PR_SET_PDEATHSIG), so
+a killed run leaves a torn ``.part`` that ``hil recover`` salvages; Ctrl-C in a terminal is
+ignored by the child (the bench closes it cleanly).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import dataclasses
+import os
+import pickle
+import queue
+import signal
+import struct
+import threading
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+from hil.record.topics import topic_spec, wire_topic
+from hil.record.writer import Recorder, RecordStats
+
+_LEN = struct.Struct("<I")
+_BATCH = 0
+_CLOSE = 1
+PR_SET_PDEATHSIG = 1
+_KNOWN_WIRE: set[tuple[str, str]] = set()
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        n = os.write(fd, view)
+        view = view[n:]
+
+
+def _read_exact(fd: int, n: int) -> bytes | None:
+    chunks: list[bytes] = []
+    while n:
+        chunk = os.read(fd, n)
+        if not chunk:
+            return None
+        chunks.append(chunk)
+        n -= len(chunk)
+    return b"".join(chunks)
+
+
+def _child(cmd_fd: int, result_fd: int, path: Path, kwargs: dict[str, Any]) -> None:
+    """The child process: a Recorder fed from the command pipe."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the bench's to handle
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except OSError:
+        pass
+    os.closerange(3, cmd_fd)  # the bench's ptys and files are none of ours
+    os.closerange(cmd_fd + 1, result_fd)
+    os.closerange(result_fd + 1, 65536)
+    rec = Recorder(path, **kwargs)
+    error = ""
+    try:
+        rec.start()
+    except BaseException as exc:  # reported to the parent, which raises it
+        _write_all(result_fd, pickle.dumps(("error", repr(exc))))
+        os._exit(1)
+    _write_all(result_fd, pickle.dumps(("started", "")))
+    final: dict[str, str] | None = None
+    while True:
+        head = _read_exact(cmd_fd, _LEN.size)
+        if head is None:
+            error = "the bench closed the pipe without closing the recording"
+            break
+        body = _read_exact(cmd_fd, _LEN.unpack(head)[0])
+        if body is None:
+            error = "torn message from the bench"
+            break
+        kind, payload = pickle.loads(body)
+        if kind == _CLOSE:
+            final = payload
+            break
+        for topic, t_ns, t_host_ns, item in payload:
+            if topic is None:  # wire bytes: item = (port, direction, data)
+                rec.log_wire(item[0], item[1], t_ns, t_host_ns, item[2])
+            else:
+                rec.log(topic, t_ns, item, t_host_ns)
+    if final is None:
+        final = {"status": "aborted", "error": error}
+    try:
+        stats = rec.close(final)
+        _write_all(result_fd, pickle.dumps(("stats", stats)))
+    except BaseException as exc:
+        _write_all(result_fd, pickle.dumps(("error", repr(exc))))
+    os._exit(0)
+
+
+class ProcessBatch:
+    """A tick's messages; ``flush()`` pickles them and queues the bytes for the sender."""
+
+    __slots__ = ("_items", "_owner")
+
+    def __init__(self, owner: ProcessRecorder) -> None:
+        self._owner = owner
+        self._items: list[tuple[str | None, int, int, Any]] = []
+
+    def log(self, topic: str, t_ns: int, payload: dict[str, Any] | Callable[[], dict[str, Any]], t_host_ns: int) -> None:
+        if topic not in self._owner.topics:
+            topic_spec(topic)  # raises UnknownTopicError with the message
+        self._items.append((topic, t_ns, t_host_ns, payload))
+
+    def log_wire(self, port: str, direction: str, t_ns: int, t_host_ns: int, data: bytes) -> None:
+        if (port, direction) not in _KNOWN_WIRE:
+            wire_topic(port, direction)  # raises UnknownTopicError
+            _KNOWN_WIRE.add((port, direction))
+        self._items.append((None, t_ns, t_host_ns, (port, direction, bytes(data))))
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def flush(self) -> None:
+        if self._items:
+            items, self._items = self._items, []
+            self._owner._send(_BATCH, items)
+
+
+class ProcessRecorder:
+    """Same life cycle and tick-path API as :class:`Recorder` (``start``, ``batch``, ``log``,
+    ``log_wire``, ``close``), with the writing done by a child process."""
+
+    def __init__(
+        self,
+        path: Path,
+        *,
+        run_start_unix_ns: int,
+        metadata: dict[str, str],
+        attachments: Iterable[tuple[str, str, bytes]] = (),
+        chunk_size: int = 65536,
+        queue_max: int = 200_000,
+    ) -> None:
+        from hil.record.topics import TOPICS
+
+        self.path = Path(path)
+        self.topics = set(TOPICS)
+        self._kwargs: dict[str, Any] = {
+            "run_start_unix_ns": run_start_unix_ns,
+            "metadata": dict(metadata),
+            "attachments": list(attachments),
+            "chunk_size": chunk_size,
+            "queue_max": queue_max,
+        }
+        self._pid: int | None = None
+        self._cmd_fd = -1
+        self._result_fd = -1
+        self._outbox: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+        self._sender: threading.Thread | None = None
+        self._stats: RecordStats | None = None
+        self.dropped = 0  #: batches that could not be handed to the child (it died)
+        self._single = ProcessBatch(self)
+
+    # -- life cycle ------------------------------------------------------------------------------
+    def start(self) -> None:
+        cmd_r, cmd_w = os.pipe()
+        res_r, res_w = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # pragma: no cover - the child (exits via os._exit)
+            try:
+                os.close(cmd_w)
+                os.close(res_r)
+                _child(cmd_r, res_w, self.path, self._kwargs)
+            finally:
+                os._exit(1)
+        os.close(cmd_r)
+        os.close(res_w)
+        self._pid, self._cmd_fd, self._result_fd = pid, cmd_w, res_r
+        kind, detail = self._result()
+        if kind != "started":
+            self._reap()
+            raise OSError(f"recorder process could not start {self.path}: {detail}")
+        self._sender = threading.Thread(target=self._send_loop, name="hil-record-sender", daemon=True)
+        self._sender.start()
+
+    def _result(self) -> tuple[str, Any]:
+        data = bytearray()
+        while True:
+            chunk = os.read(self._result_fd, 65536)
+            if not chunk:
+                break
+            data += chunk
+            try:
+                return pickle.loads(bytes(data))  # type: ignore[no-any-return]
+            except (pickle.UnpicklingError, EOFError):
+                continue
+        return ("error", "the recorder process ended without a result")
+
+    def _reap(self) -> None:
+        if self._pid is not None:
+            try:
+                os.waitpid(self._pid, 0)
+            except ChildProcessError:
+                pass
+            self._pid = None
+
+    # -- tick path --------------------------------------------------------------------------------
+    def batch(self) -> ProcessBatch:
+        return ProcessBatch(self)
+
+    def log(self, topic: str, t_ns: int, payload: dict[str, Any], t_host_ns: int) -> None:
+        self._single.log(topic, t_ns, payload, t_host_ns)
+        self._single.flush()
+
+    def log_wire(self, port: str, direction: str, t_ns: int, t_host_ns: int, data: bytes) -> None:
+        self._single.log_wire(port, direction, t_ns, t_host_ns, data)
+        self._single.flush()
+
+    def _send(self, kind: int, payload: Any) -> None:
+        body = pickle.dumps((kind, payload), protocol=pickle.HIGHEST_PROTOCOL)
+        self._outbox.put(_LEN.pack(len(body)) + body)
+
+    def _send_loop(self) -> None:
+        while True:
+            data = self._outbox.get()
+            if data is None:
+                return
+            try:
+                _write_all(self._cmd_fd, data)
+            except OSError:  # the child died: count what could not be handed over
+                self.dropped += 1
+
+    # -- end --------------------------------------------------------------------------------------
+    def close(self, final_metadata: dict[str, str] | None = None) -> RecordStats:
+        """Hand over what is queued, close the recording in the child, return its stats."""
+        if self._stats is not None:
+            return self._stats
+        if self._pid is None:
+            raise RuntimeError("ProcessRecorder.close() before start()")
+        self._send(_CLOSE, {k: str(v) for k, v in (final_metadata or {}).items()})
+        self._outbox.put(None)
+        if self._sender is not None:
+            self._sender.join()
+        os.close(self._cmd_fd)
+        kind, detail = self._result()
+        os.close(self._result_fd)
+        self._reap()
+        if kind != "stats":
+            raise OSError(f"recorder process failed to finish {self.path}: {detail}")
+        stats: RecordStats = detail
+        if self.dropped:
+            stats = dataclasses.replace(stats, dropped=stats.dropped + self.dropped)
+        self._stats = stats
+        return stats
