@@ -28,6 +28,7 @@ from flightcode.drivers.maestro import EscParams
 from flightcode.drivers.ppm_capture import PpmParams
 from flightcode.drivers.sbus import SbusParams
 from flightcode.drivers.xsens import ImuParams
+from flightcode.estimation.plausibility import PlausibilityParams
 from flightcode.log import Level
 from flightcode.modes import ModesParams
 
@@ -178,6 +179,8 @@ class KfParams:
     rest_after_s: float = 1.0
     ground_effect_alt_m: float = 1.0
     ground_effect_r_scale: float = 25.0
+    baro_gate_chi2: float = 25.0
+    baro_gate_timeout_s: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -231,6 +234,7 @@ class FlightConfig:
     yaw: YawParams = field(default_factory=YawParams)
     altitude: AltitudeParams = field(default_factory=AltitudeParams)
     kf: KfParams = field(default_factory=KfParams)
+    plausibility: PlausibilityParams = field(default_factory=PlausibilityParams)
     failsafe: FailsafeParams = field(default_factory=FailsafeParams)
     telemetry: TelemetryParams = field(default_factory=TelemetryParams)
     modes: ModesParams = field(default_factory=ModesParams)
@@ -335,6 +339,10 @@ def _check(file: str, cfg: FlightConfig) -> None:
         "failsafe.descend_mps": cfg.failsafe.descend_mps, "failsafe.imu_timeout_s": cfg.failsafe.imu_timeout_s,
         "telemetry.divider": cfg.telemetry.divider, "log.stats_period_s": cfg.log.stats_period_s,
         "modes.gesture_hold_s": cfg.modes.gesture_hold_s, "modes.landed_s": cfg.modes.landed_s,
+        "modes.landed_vz_mps": cfg.modes.landed_vz_mps, "kf.baro_gate_chi2": cfg.kf.baro_gate_chi2,
+        "plausibility.baro_max_step_Pa": cfg.plausibility.baro_max_step_Pa,
+        "plausibility.accel_max_g": cfg.plausibility.accel_max_g,
+        "plausibility.accel_xsens_tolerance_mps2": cfg.plausibility.accel_xsens_tolerance_mps2,
         "rc.capture.lock_frames": cfg.rc.capture.lock_frames, "rc.capture.stale_ms": cfg.rc.capture.stale_ms,
     }
     for key, value in positive.items():
@@ -346,6 +354,7 @@ def _check(file: str, cfg: FlightConfig) -> None:
         "altitude.takeoff_alt_m": cfg.altitude.takeoff_alt_m, "kf.q_a": cfg.kf.q_a, "kf.q_d": cfg.kf.q_d,
         "kf.q_b": cfg.kf.q_b, "kf.rest_after_s": cfg.kf.rest_after_s,
         "kf.ground_effect_alt_m": cfg.kf.ground_effect_alt_m, "telemetry.max_out_waiting": cfg.telemetry.max_out_waiting,
+        "kf.baro_gate_timeout_s": cfg.kf.baro_gate_timeout_s,
     }
     for key, value in non_negative.items():
         need(value >= 0, key, f"must be >= 0 (got {value})")
@@ -391,6 +400,8 @@ def _check(file: str, cfg: FlightConfig) -> None:
     need(cfg.kf.ground_effect_r_scale >= 1.0, "kf.ground_effect_r_scale",
          f"must be >= 1 (1 = no ground-effect allowance; got {cfg.kf.ground_effect_r_scale})")
     need(cfg.failsafe.imu_timeout_s > cfg.T_s, "failsafe.imu_timeout_s", "must be longer than one sample period")
+    need(0.0 < cfg.modes.landed_collective_ratio < 1.0, "modes.landed_collective_ratio",
+         f"must be between 0 and 1 (a fraction of the hover collective; got {cfg.modes.landed_collective_ratio})")
 
 
 def parse(text: str, file: str = "<config>") -> FlightConfig:

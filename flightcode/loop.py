@@ -8,11 +8,14 @@ Each iteration (:meth:`FlightLoop.step`):
 
 1. block on the next IMU sample (read timeout = the IMU-loss watchdog; a timeout sends the
    motors to minimum and puts the modes into FAILSAFE_IMU);
-2. read the four ADC channels (one pipelined Bus Pirate write, one read);
+2. read the four ADC channels (one pipelined Bus Pirate write, one read); readings the
+   sensors cannot produce are dropped (:mod:`flightcode.estimation.plausibility`);
 3. take the RC input (non-blocking read of whatever arrived);
 4. estimate altitude (KF predict with the throttle applied over the last sample, update with
-   barometer altitude and tilt-compensated vertical acceleration);
-5. modes (gestures, take-off, landing, failsafe);
+   barometer altitude, gated against outliers, and tilt-compensated vertical acceleration);
+5. modes (gestures, take-off, landing, failsafe); a landing (the throttle stick at or below
+   the take-off threshold in flight, or the RC failsafe) is flown as a descent that does not
+   stop at the estimated ground (:mod:`flightcode.control.landing`);
 6. control: stick prefilters, memory attitude (roll, pitch), PI yaw rate, LQI altitude;
 7. mix and write one Maestro Set Multiple Targets;
 8. telemetry every ``telemetry.divider``-th sample slot of sensor time (50 Hz at 400 Hz).
@@ -32,6 +35,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from flightcode.config import FlightConfig
+from flightcode.control.landing import ACCEL_LP_TAU_S, HoverThrottle, LandingDescent
 from flightcode.control.lqi_altitude import AltitudeModel, LqiAltitude
 from flightcode.control.memory_attitude import MemoryAttitudeController, MemoryGains
 from flightcode.control.mixer import Mixer
@@ -52,6 +56,7 @@ from flightcode.drivers.sbus import SbusRcInput
 from flightcode.drivers.xbee import XbeeTelemetryLink
 from flightcode.drivers.xsens import ImuSample, XsensDriver
 from flightcode.estimation.altitude_kf import AltitudeKF
+from flightcode.estimation.plausibility import AdcPlausibility
 from flightcode.log import Logger
 from flightcode.modes import Mode, ModeMachine, MotorPolicy
 from flightcode.telemetry import ComputeWindow, TelemetryFlags, TelemetryRecord, encode
@@ -96,21 +101,6 @@ def make_devices(cfg: FlightConfig, ports: dict[str, SerialLike], log: Logger,
                    telemetry)
 
 
-class _Descent:
-    """Failsafe altitude setpoint: from where the vehicle is, down at a fixed rate to 0 m."""
-
-    def __init__(self, rate_mps: float) -> None:
-        self.rate_mps = rate_mps
-        self.z_m = 0.0
-
-    def start(self, z_m: float) -> None:
-        self.z_m = max(0.0, z_m)
-
-    def step(self, dt_s: float) -> float:
-        self.z_m = max(0.0, self.z_m - self.rate_mps * dt_s)
-        return self.z_m
-
-
 class FlightLoop:
     """The flight code's main loop on ``devices`` with config ``cfg``.
 
@@ -142,13 +132,16 @@ class FlightLoop:
         self.model = AltitudeModel(v.m_kg, v.F_max_N, alt.T1_s)
         self.lqi = LqiAltitude(self.model, q_int=alt.q_int, q_z=alt.q_z, q_vz=alt.q_vz, q_az=alt.q_az, r=alt.r,
                                T_s=T_s)
-        self.kf = AltitudeKF(self.model, T_s, kf.q_a, kf.q_d, kf.q_b, kf.r_baro_m2, kf.r_acc, kf.r_rest_vz)
+        self.kf = AltitudeKF(self.model, T_s, kf.q_a, kf.q_d, kf.q_b, kf.r_baro_m2, kf.r_acc, kf.r_rest_vz,
+                             kf.baro_gate_chi2, kf.baro_gate_timeout_s)
+        self.plausible = AdcPlausibility(cfg.plausibility)
         self.mixer = Mixer(v.frame, v.arm_m, v.F_max_N / 4.0, v.kq_over_kt_m)
         self.analog = AnalogChain(cfg.adc.vref_V, cfg.adc.baro, cfg.adc.accel)
         self.baro_ref = BaroReference(int(cfg.adc.baro.zero_average_s * 1e9))
         self.accel_zero = AccelRestOffset()
         self.modes = ModeMachine(cfg.modes, alt.takeoff_alt_m)
-        self.descent = _Descent(cfg.failsafe.descend_mps)
+        self.descent = LandingDescent(cfg.failsafe.descend_mps)
+        self.hover = HoverThrottle(self.model.d_h)
         self.window = ComputeWindow()
         self._rc_loss_ns = int(cfg.failsafe.rc_loss_s * 1e9)
         self._imu_timeout_ns = int(cfg.failsafe.imu_timeout_s * 1e9)
@@ -163,6 +156,8 @@ class FlightLoop:
         # State carried between samples.
         self._t_prev_ns: int | None = None
         self._u_applied = 0.0  # throttle deviation applied over the last sample (KF input)
+        self._collective_applied = 0.0  # collective applied over the last sample (touchdown test)
+        self._a_up_lp = 0.0  # XSENS vertical acceleration, low-passed (touchdown test), m/s^2
         self._z_ref_m = 0.0
         self._tel_seq = 0
         self._tel_last_slot = -1
@@ -238,6 +233,14 @@ class FlightLoop:
         if n & (n - 1) == 0:
             self.log.error(f"{device}.port_error", count=n, error=str(exc))
 
+    def _rare(self, key: str, event: str, **fields: object) -> None:
+        """Count an in-flight anomaly in ``self.counters[key]``; log it (warning) on the 1st,
+        2nd, 4th, 8th... occurrence, as the port errors are."""
+        self.counters[key] += 1
+        n = self.counters[key]
+        if n & (n - 1) == 0:
+            self.log.warning(event, count=n, **fields)
+
     def _log_transitions(self) -> None:
         for tr in self.modes.transitions:
             self.log.info("mode", old=tr.old, new=tr.new, cause=tr.event.value)
@@ -289,20 +292,31 @@ class FlightLoop:
         io_ns = perf() - t_io
         z_baro: float | None = None
         f_adxl: tuple[float, float, float] | None = None
-        if codes is not None:
+        if codes is None:
+            self.plausible.baro_Pa(None)  # no previous reading for the next step test
+        else:
+            refused = self.plausible.refused
+            booting = not self.baro_ref.ready  # at rest, averaging: readings for the references only
             p_Pa = self.analog.baro_pressure_Pa(codes[0])
-            f_adxl = self.analog.accel_B_mps2(codes[1], codes[2], codes[3])
-            if not self.baro_ref.ready:  # boot: at rest, averaging the references
-                self.accel_zero.add(f_adxl, roll, pitch)
-            else:
-                f_adxl = self.accel_zero.correct(f_adxl)
             if p_Pa is None:
                 self.counters["baro_out_of_range"] += 1
-            elif not self.baro_ref.ready:
-                if self.baro_ref.add(p_Pa, t_ns):
-                    self._fix_references()
+            p_Pa = self.plausible.baro_Pa(p_Pa)
+            f_adxl = self.analog.accel_B_mps2(codes[1], codes[2], codes[3])
+            if not self.plausible.accel_in_range(f_adxl):
+                f_adxl = None
+            elif booting:
+                self.accel_zero.add(f_adxl, roll, pitch)
+                f_adxl = None
             else:
-                z_baro = self.baro_ref.altitude_m(p_Pa)
+                f_adxl = self.accel_zero.correct(f_adxl)
+            if self.plausible.refused != refused:
+                self._rare("adc_implausible", "adc.implausible", **self.plausible.counters)
+            if p_Pa is not None:
+                if booting:
+                    if self.baro_ref.add(p_Pa, t_ns):
+                        self._fix_references()
+                else:
+                    z_baro = self.baro_ref.altitude_m(p_Pa)
 
         # 3. RC (non-blocking)
         try:
@@ -317,20 +331,40 @@ class FlightLoop:
             roll_cmd = pitch_cmd = yaw_rate_cmd = z_stick = 0.0
             thr_us, yaw_us = cfg.rc.throttle_low_us, cfg.rc.center_us
 
-        # 4. altitude estimate
-        f_B = sample.f_B_mps2 if cfg.kf.accel_source == "xsens" else f_adxl
+        # 4. altitude estimate: a_up = -(R_NB f_B)_z - g, tilt-compensated with the IMU attitude
+        f_x = sample.f_B_mps2
+        a_up_xsens = -(-sth * f_x[0] + sphi * cth * f_x[1] + cphi * cth * f_x[2]) - G0_MPS2
+        if math.isfinite(a_up_xsens):  # low-passed for the touchdown test
+            self._a_up_lp += dt_s / (ACCEL_LP_TAU_S + dt_s) * (a_up_xsens - self._a_up_lp)
         a_up: float | None = None
-        if f_B is not None:
-            f_N_z = -sth * f_B[0] + sphi * cth * f_B[1] + cphi * cth * f_B[2]
-            a_up = -f_N_z - G0_MPS2
+        if cfg.kf.accel_source == "xsens":
+            a_up = a_up_xsens
+        elif f_adxl is not None:
+            a_up = -(-sth * f_adxl[0] + sphi * cth * f_adxl[1] + cphi * cth * f_adxl[2]) - G0_MPS2
+            # the same airframe's other accelerometer must agree (once the offsets are known)
+            if self.baro_ref.ready and not self.plausible.accel_agrees(a_up, a_up_xsens):
+                a_up = None
+                self._rare("adc_implausible", "adc.implausible", **self.plausible.counters)
         if self.baro_ref.ready:
             self.kf.predict(self._u_applied)
             # In ground effect the rotor wash over the static port makes the barometer read
             # low: flying (the last sample's mode) below ground_effect_alt_m, trust it less.
-            in_ground_effect = self.modes.controllers_active and self.kf.z_m < cfg.kf.ground_effect_alt_m
-            if in_ground_effect and z_baro is not None:
+            # It can only read low there (overpressure), so a reading below the take-off level
+            # says no more than "not below it": it counts as the take-off level, and fully
+            # while the estimate has sunk below that floor.
+            r_scale = 1.0
+            if self.modes.controllers_active and self.kf.z_m < cfg.kf.ground_effect_alt_m and z_baro is not None:
                 self.counters["baro_in_ground_effect"] += 1
-            self.kf.update(z_baro, a_up, cfg.kf.ground_effect_r_scale if in_ground_effect else 1.0)
+                z_baro = max(z_baro, 0.0)
+                if not (self.kf.z_m < 0.0 and z_baro == 0.0):
+                    r_scale = cfg.kf.ground_effect_r_scale
+            kc = self.kf.counters
+            reanchored = kc["baro_reanchored"]
+            if not self.kf.update(z_baro, a_up, r_scale):
+                self._rare("baro_rejected", "kf.baro_rejected", innovation_m=(z_baro or 0.0) - self.kf.z_m)
+            elif kc["baro_reanchored"] != reanchored:
+                self.log.warning("kf.baro_reanchored", count=kc["baro_reanchored"], z_hat_m=self.kf.z_m,
+                                 rejected=kc["baro_rejected"])
             # Standing on the ground: at rest since long enough that a landing detected a
             # little above the ground (from this very estimate) has come down by now.
             since = self.modes.resting_since_ns
@@ -340,19 +374,32 @@ class FlightLoop:
                     if since > 0:  # after a flight: the touchdown may have fooled the estimate
                         self.kf.loosen_height(cfg.kf.r_baro_m2)
                 self.kf.update_at_rest()
+            elif self.modes.ground_contact:  # landing, on the ground: it stands still (the last sample's test)
+                self.kf.update_at_rest()
         z_hat, vz_hat, az_hat = self.kf.z_m, self.kf.vz_mps, self.kf.az_mps2
 
-        # 5. modes
+        # 5. modes. A landing (the RC failsafe, or the throttle stick at or below the take-off
+        # threshold in flight; a lost RC reads as that) is a descent from the lower of the last
+        # setpoint and the estimate that goes on below the estimated ground until the modes
+        # confirm the touchdown (flightcode.control.landing).
         modes = self.modes
-        failsafe = modes.mode is Mode.FAILSAFE_RC
-        z_ref = self.descent.step(dt_s) if failsafe else z_stick
+        before = modes.mode
+        landing = before is Mode.FAILSAFE_RC or (before is Mode.FLYING and z_stick <= cfg.altitude.takeoff_alt_m)
+        if landing:
+            if not self.descent.active:
+                self.descent.start(min(self._z_ref_m, z_hat))
+            z_ref = self.descent.step(dt_s)
+        else:
+            self.descent.stop()
+            z_ref = z_stick
         mode = modes.update(t_ns, baro_ready=self.baro_ref.ready, rc_valid=rc_valid, throttle_us=thr_us,
                             yaw_us=yaw_us, z_ref_m=z_ref, z_hat_m=z_hat, vz_hat_mps=vz_hat,
+                            collective=self._collective_applied, hover_collective=self.hover.collective,
+                            a_up_mps2=self._a_up_lp,
                             imu_continuous=gap_ns <= self._imu_timeout_ns)
         if modes.transitions:
-            if mode is Mode.FAILSAFE_RC and not failsafe:
-                self.descent.start(min(self._z_ref_m, z_hat))
-                z_ref = self.descent.z_m
+            if not modes.controllers_active:
+                self.descent.stop()
             self._log_transitions()
         if mode is Mode.FAILSAFE_RC:
             roll_cmd = pitch_cmd = yaw_rate_cmd = 0.0
@@ -379,10 +426,16 @@ class FlightLoop:
             self.yaw_ctl.set_applied(tau_applied[2])
             pulses = dev.esc.pulses_from_throttle(mix.throttle)
             saturated = mix.saturated
-            self._u_applied = mix.applied_collective_throttle - self.model.d_h
+            self._collective_applied = mix.applied_collective_throttle
+            self._u_applied = self._collective_applied - self.model.d_h
+            # steady flight clear of the ground effect teaches the hover collective
+            if mode is Mode.FLYING and not landing and not saturated and HoverThrottle.steady(
+                    z_hat, vz_hat, az_hat, cfg.kf.ground_effect_alt_m):
+                self.hover.update(self._collective_applied, dt_s)
         else:
             level = cfg.esc.idle_us if policy is MotorPolicy.IDLE else cfg.esc.min_us
             pulses = (level, level, level, level)
+            self._collective_applied = 0.0
             self._u_applied = 0.0  # on the ground the weight is carried by the ground, not thrust
         self._write_esc(pulses)
 
@@ -443,6 +496,8 @@ class FlightLoop:
         self.log.info("stats", mode=mode, z_hat_m=z_hat, compute_max_us=self._stats_max_ns / 1000.0,
                       imu_gaps=d.imu.counters["gap_samples"], imu_skipped=d.imu.counters["skipped_samples"],
                       adc_failed=d.adc.counters["failed_reads"], adc_resyncs=d.adc_bridge.counters["resyncs"],
+                      adc_implausible=self.plausible.refused, baro_rejected=self.kf.counters["baro_rejected"],
+                      hover_collective=self.hover.collective,
                       rc_errors=self._rc_errors(),
                       telemetry_sent=d.telemetry.counters["sent"] if d.telemetry is not None else 0)
         self._stats_max_ns = 0

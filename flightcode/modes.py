@@ -13,7 +13,8 @@ BOOT_DONE               the barometer reference is fixed
 ARM_GESTURE             RC valid, throttle <= 1050 us and yaw >= 1900 us for 1 s
 DISARM_GESTURE          RC valid, throttle <= 1050 us and yaw <= 1100 us for 1 s
 TAKEOFF                 altitude setpoint > takeoff threshold
-LANDED                  setpoint <= threshold, |z| and |vz| small for ``landed_s``
+LANDED                  ground contact (below) and |vz estimate| < ``landed_vz_mps``
+                        (the descent has stalled) for ``landed_s``
 IDLE_TIMEOUT            armed on the ground for ``auto_disarm_s``
 RC_LOST                 no good RC frame for ``failsafe.rc_loss_s`` (judged by the loop)
 IMU_LOST                the IMU read timed out (``failsafe.imu_timeout_s`` of wall clock)
@@ -24,10 +25,29 @@ IMU_RESUMED             a sample arrived again and it follows the last one proce
 IMU_BACK                a sample arrived again after a real gap: disarmed, re-arm to fly
 ======================  ===========================================================
 
+Ground contact (:attr:`ModeMachine.ground_contact`, judged every sample while the controllers
+fly): a landing is being flown (setpoint <= take-off threshold), the altitude estimate is
+below ``landed_alt_m`` (near the ground), the collective applied is below
+``landed_collective_ratio`` x the hover collective and the measured vertical acceleration
+(low-passed) is within ``landed_accel_mps2`` of zero: the vehicle does not accelerate
+downwards on a thrust that could not hold it in the air.
+
 Motors per mode (:data:`MOTORS`): minimum pulse (the ESCs' arming level) in BOOT, DISARMED
 and FAILSAFE_IMU (so a delivery stall costs the samples it lasts, never the flight); idle pulse when ARMED on the ground; the controllers in FLYING and
 FAILSAFE_RC (level, descend at ``failsafe.descend_mps``, then disarm on landing). The
 failsafe latches: RC coming back does not return control before the vehicle is disarmed.
+
+Why the touchdown test is about thrust and measured acceleration, not height: near the
+ground the altitude estimate is only as good as a barometer in rotor wash (it reads low) and
+an integrated accelerometer, a few decimetres either way, and a vehicle on its ground cushion
+hovers with a small vertical speed too. A landing declared from height and speed alone cut
+the motors 0.2-0.5 m up on the bench. Not accelerating downwards on 70 % of the hover
+collective (49 % of the hover thrust; at most 74 % with the strongest ground effect) is only
+possible on the ground: in the air the accelerometer would read at least 2.5 m/s^2 down at
+once, with no integration in between. The loop flies landings as a descent that does not
+stop at the estimated ground level (:mod:`flightcode.control.landing`), so on the ground the
+altitude loop winds the collective down until the test holds; and while ground contact
+holds it tells the altitude filter that the vehicle stands still.
 """
 
 from __future__ import annotations
@@ -109,9 +129,14 @@ class ModesParams:
         arm_yaw_min_us: yaw at or above this arms, us.
         disarm_yaw_max_us: yaw at or below this disarms, us.
         gesture_hold_s: how long a gesture must be held, s.
-        landed_alt_m: |altitude estimate| below this counts as on the ground, m.
+        landed_alt_m: a touchdown is only believed with the altitude estimate below this
+            (near the take-off level, with the estimate's error near the ground), m.
         landed_vz_mps: |vertical speed estimate| below this counts as at rest, m/s.
-        landed_s: how long both must hold (with the setpoint at or below take-off), s.
+        landed_collective_ratio: applied collective below this fraction of the hover
+            collective counts as "could not fly" (thrust ~ collective^2).
+        landed_accel_mps2: |measured vertical acceleration| (low-passed) below this counts
+            as "not falling", m/s^2.
+        landed_s: how long all must hold (with the setpoint at or below take-off), s.
         auto_disarm_s: armed on the ground this long disarms, s.
     """
 
@@ -121,8 +146,10 @@ class ModesParams:
     arm_yaw_min_us: float = 1900.0
     disarm_yaw_max_us: float = 1100.0
     gesture_hold_s: float = 1.0
-    landed_alt_m: float = 0.3
+    landed_alt_m: float = 1.0
     landed_vz_mps: float = 0.3
+    landed_collective_ratio: float = 0.7
+    landed_accel_mps2: float = 1.0
     landed_s: float = 1.0
     auto_disarm_s: float = 5.0
 
@@ -182,6 +209,9 @@ class ModeMachine:
         self._idle = _Hold(_ns(params.auto_disarm_s))
         self._t_ns = 0
         self._interrupted = Mode.DISARMED  # the mode IMU_LOST left (IMU_RESUMED returns to it)
+        #: The last sample's ground-contact test (module docstring; False unless the controllers
+        #: fly, and after a transition).
+        self.ground_contact = False
         #: Sensor time since which the vehicle has been in modes at rest (:data:`AT_REST`)
         #: without a break, ns; None while it is not. Boot starts at rest at sensor time 0.
         self.resting_since_ns: int | None = 0
@@ -215,6 +245,7 @@ class ModeMachine:
         elif self.mode not in AT_REST:
             self.resting_since_ns = t_ns
         self.mode = new
+        self.ground_contact = False  # judged again in the new mode
         for hold in (self._arm, self._disarm, self._landed, self._idle):
             hold.reset()
         return True
@@ -225,18 +256,26 @@ class ModeMachine:
         return self.mode
 
     def update(self, t_ns: int, *, baro_ready: bool, rc_valid: bool, throttle_us: float, yaw_us: float,
-               z_ref_m: float, z_hat_m: float, vz_hat_mps: float, imu_continuous: bool = False) -> Mode:
+               z_ref_m: float, z_hat_m: float, vz_hat_mps: float, collective: float, hover_collective: float,
+               a_up_mps2: float, imu_continuous: bool = False) -> Mode:
         """One sample at sensor time ``t_ns``; returns the (possibly new) mode.
 
         ``throttle_us``/``yaw_us`` are the latest stick pulses (ignored unless ``rc_valid``);
-        ``z_ref_m`` the altitude setpoint in force (sticks, or the failsafe descent);
-        ``z_hat_m``/``vz_hat_mps`` the altitude estimate (z up); ``imu_continuous``: this
+        ``z_ref_m`` the altitude setpoint in force (sticks, or the landing descent);
+        ``z_hat_m``/``vz_hat_mps`` the altitude estimate (z up); ``collective`` the collective
+        throttle applied over the last sample (0 when the controllers do not drive the motors)
+        and ``hover_collective`` the collective that holds the vehicle in the air (unit
+        throttle, both); ``a_up_mps2`` the measured vertical acceleration, low-passed (m/s^2,
+        up; from the IMU, not the estimate); ``imu_continuous``: this
         sample follows the previous one processed by at most the watchdog time of sensor time
         (matters only after an IMU timeout: IMU_RESUMED instead of IMU_BACK).
         """
         self._t_ns = t_ns
         p = self.params
         mode = self.mode
+        self.ground_contact = (MOTORS[mode] is MotorPolicy.CONTROL and z_ref_m <= self.takeoff_alt_m
+                               and z_hat_m < p.landed_alt_m and collective < p.landed_collective_ratio * hover_collective
+                               and abs(a_up_mps2) < p.landed_accel_mps2)
         if mode is Mode.FAILSAFE_IMU:
             self._fire(ModeEvent.IMU_RESUMED if imu_continuous else ModeEvent.IMU_BACK, t_ns)
             return self.mode
@@ -254,7 +293,7 @@ class ModeMachine:
             return self.mode
         if z_ref_m > self.takeoff_alt_m and self._fire(ModeEvent.TAKEOFF, t_ns):
             return self.mode
-        on_ground = z_ref_m <= self.takeoff_alt_m and abs(z_hat_m) < p.landed_alt_m and abs(vz_hat_mps) < p.landed_vz_mps
+        on_ground = self.ground_contact and abs(vz_hat_mps) < p.landed_vz_mps
         if self._landed.update(on_ground, t_ns) and self._fire(ModeEvent.LANDED, t_ns):
             return self.mode
         if self._idle.update(self.mode is Mode.ARMED, t_ns):

@@ -15,6 +15,15 @@ positive: a_up = -(R_NB f_B)_z - g with f_B the FRD specific force (the loop com
 compensated). The d state is needed: without it a constant throttle offset (payload) would be
 mistaken for accelerometer bias.
 
+Barometer outliers (a gust on the static port, a corrupted ADC code) are rejected by an
+innovation gate: a reading whose squared innovation exceeds ``baro_gate_chi2`` times its
+innovation variance S = P_zz + R (a chi-square test with one degree of freedom; 25 = 5 sigma,
+a false rejection every ~1.7 million Gaussian readings) is not fused and is counted in
+``counters["baro_rejected"]``. A disagreement that lasts ``baro_gate_timeout_s`` is not an
+outlier any more (the estimate, not the barometer, is what went wrong, or the barometer
+really moved): the height is then re-anchored to the reading (its variance loosened to the
+squared innovation, so the update puts it there) and ``counters["baro_reanchored"]`` counts it.
+
 On the ground (motors not under control) the vehicle is at rest: :meth:`update_at_rest`
 adds a zero-velocity pseudo-measurement (z' = 0, variance ``r_rest_vz``), so an accelerometer
 offset is learnt as bias b instead of being integrated into a fall (what made the estimate sink
@@ -60,6 +69,10 @@ class AltitudeKF:
             the x16 stage, 0.5 mV + quantisation; the flight config sets the vehicle's).
         r_acc: vertical acceleration noise variance, (m/s^2)^2 (vibration + ADXL noise + LSB).
         r_rest_vz: variance of the zero-velocity pseudo-measurement at rest, (m/s)^2.
+        baro_gate_chi2: a barometer reading with innovation^2 > this x S is rejected (an
+            outlier); ``math.inf`` (the default) fuses every reading.
+        baro_gate_timeout_s: consecutive rejections lasting this long re-anchor the height to
+            the barometer, s.
     """
 
     def __init__(
@@ -72,6 +85,8 @@ class AltitudeKF:
         r_baro_m2: float = 1.28,
         r_acc: float = 0.091,
         r_rest_vz: float = 0.0025,
+        baro_gate_chi2: float = math.inf,
+        baro_gate_timeout_s: float = 1.0,
     ) -> None:
         if not (math.isfinite(T_s) and T_s > 0.0):
             raise ValueError(f"T_s must be finite and > 0, got {T_s}")
@@ -81,6 +96,10 @@ class AltitudeKF:
         for name, value in (("r_baro_m2", r_baro_m2), ("r_acc", r_acc), ("r_rest_vz", r_rest_vz)):
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
+        if not baro_gate_chi2 > 0.0:  # inf allowed: no gate
+            raise ValueError(f"baro_gate_chi2 must be > 0, got {baro_gate_chi2}")
+        if not (math.isfinite(baro_gate_timeout_s) and baro_gate_timeout_s >= 0.0):
+            raise ValueError(f"baro_gate_timeout_s must be finite and >= 0, got {baro_gate_timeout_s}")
         self.model = model
         self.T_s = float(T_s)
         a_c, b_c = self.continuous_model(model)
@@ -101,6 +120,11 @@ class AltitudeKF:
         self.r_baro_m2 = float(r_baro_m2)
         self.r_acc = float(r_acc)
         self.r_rest_vz = float(r_rest_vz)
+        self.baro_gate_chi2 = float(baro_gate_chi2)
+        #: Consecutive rejected readings after which the height is re-anchored to the barometer.
+        self.baro_gate_max_rejects = max(1, round(baro_gate_timeout_s / self.T_s))
+        #: Barometer readings rejected in a row so far (0 after any accepted reading).
+        self.baro_reject_run = 0
         self._p0 = np.diag([float(r_baro_m2)] + [float(v) for v in P0_DIAG_REST[1:]])
         # Per-sample working arrays (no allocation on the tick path).
         self._F = np.array(kf.F)
@@ -114,7 +138,8 @@ class AltitudeKF:
         self._k = np.zeros(5)
         self._P = np.zeros((5, 5))
         self._m55 = np.zeros((5, 5))
-        #: Non-finite inputs seen (treated as missing measurements / zero input).
+        #: Non-finite inputs seen (treated as missing measurements / zero input), barometer
+        #: readings rejected by the gate and re-anchors after a long rejection.
         self.counters: Counter[str] = Counter()
         self.reset(0.0)
 
@@ -138,6 +163,7 @@ class AltitudeKF:
         """
         self._x[:] = (float(z0_m), 0.0, 0.0, 0.0, 0.0)
         self._P[:] = self._p0
+        self.baro_reject_run = 0
         if z_var_m2 is not None:
             self._P[0, 0] = float(z_var_m2)
 
@@ -168,9 +194,22 @@ class AltitudeKF:
         np.multiply(k[:, None], ph[None, :], out=self._m55)
         self._P -= self._m55
 
-    def _update_baro(self, z_baro_m: float, r_m2: float) -> None:
+    def _update_baro(self, z_baro_m: float, r_m2: float) -> bool:
+        """Gate and fuse one barometer reading; True if it was fused."""
+        innovation = z_baro_m - float(self._x[0])
+        p_zz = float(self._P[0, 0])
+        if innovation * innovation > self.baro_gate_chi2 * (p_zz + r_m2):
+            self.counters["baro_rejected"] += 1
+            self.baro_reject_run += 1
+            if self.baro_reject_run < self.baro_gate_max_rejects:
+                return False
+            # Disagreeing for the whole timeout: believe the barometer again, at once.
+            self.counters["baro_reanchored"] += 1
+            self.loosen_height(innovation * innovation)
+        self.baro_reject_run = 0
         np.copyto(self._ph, self._P[:, 0])
-        self._scalar_update(z_baro_m - float(self._x[0]), float(self._ph[0]), r_m2)
+        self._scalar_update(innovation, float(self._ph[0]), r_m2)
+        return True
 
     def _update_acc(self, a_up_mps2: float) -> None:
         P, ph, x = self._P, self._ph, self._x
@@ -178,17 +217,21 @@ class AltitudeKF:
         ph += P[:, 4]
         self._scalar_update(a_up_mps2 - float(x[2] + x[3] + x[4]), float(ph[2] + ph[3] + ph[4]), self.r_acc)
 
-    def update(self, z_baro_m: float | None, a_up_mps2: float | None, baro_r_scale: float = 1.0) -> None:
+    def update(self, z_baro_m: float | None, a_up_mps2: float | None, baro_r_scale: float = 1.0) -> bool:
         """Correct with this tick's measurements; ``None`` (or non-finite) means missing.
 
         Args:
             z_baro_m: barometric altitude, m, up positive.
             a_up_mps2: vertical acceleration from the accelerometer, m/s^2, up positive.
             baro_r_scale: this reading's variance is ``r_baro_m2`` times this (> 1: trusted less).
+
+        Returns:
+            False if a barometer reading was given and rejected by the gate, else True.
         """
+        fused = True
         if z_baro_m is not None:
             if math.isfinite(z_baro_m):
-                self._update_baro(z_baro_m, self.r_baro_m2 * baro_r_scale)
+                fused = self._update_baro(z_baro_m, self.r_baro_m2 * baro_r_scale)
             else:
                 self.counters["nonfinite_baro"] += 1
         if a_up_mps2 is not None:
@@ -196,6 +239,7 @@ class AltitudeKF:
                 self._update_acc(a_up_mps2)
             else:
                 self.counters["nonfinite_acc"] += 1
+        return fused
 
     def loosen_height(self, z_var_m2: float) -> None:
         """Make the height as uncertain as ``z_var_m2`` (m^2) and uncorrelated with the other

@@ -31,6 +31,7 @@ class Pilot:
         self.rc_valid = True
         self.throttle, self.yaw = 1000.0, 1500.0
         self.z_ref = self.z = self.vz = 0.0
+        self.collective, self.hover, self.a_up = 0.72, 0.72, 0.0  # hovering thrust, not accelerating
         self.imu_continuous = False
 
     def run(self, seconds: float, **inputs: float) -> Mode:
@@ -39,7 +40,8 @@ class Pilot:
         end = self.t + int(seconds * S)
         while self.t < end:
             self.m.update(self.t, baro_ready=True, rc_valid=self.rc_valid, throttle_us=self.throttle, yaw_us=self.yaw,
-                          z_ref_m=self.z_ref, z_hat_m=self.z, vz_hat_mps=self.vz, imu_continuous=self.imu_continuous)
+                          z_ref_m=self.z_ref, z_hat_m=self.z, vz_hat_mps=self.vz, collective=self.collective,
+                          hover_collective=self.hover, a_up_mps2=self.a_up, imu_continuous=self.imu_continuous)
             self.t += TICK
         return self.m.mode
 
@@ -61,10 +63,10 @@ def flying_pilot() -> Pilot:
 
 def test_boot_waits_for_the_baro_reference() -> None:
     m = ModeMachine(ModesParams(), 0.5)
-    assert m.update(0, baro_ready=False, rc_valid=True, throttle_us=1000, yaw_us=1500, z_ref_m=0, z_hat_m=0,
-                    vz_hat_mps=0) is Mode.BOOT
-    assert m.update(TICK, baro_ready=True, rc_valid=True, throttle_us=1000, yaw_us=1500, z_ref_m=0, z_hat_m=0,
-                    vz_hat_mps=0) is Mode.DISARMED
+    ground = {"z_ref_m": 0.0, "z_hat_m": 0.0, "vz_hat_mps": 0.0, "collective": 0.0, "hover_collective": 0.72,
+              "a_up_mps2": 0.0}
+    assert m.update(0, baro_ready=False, rc_valid=True, throttle_us=1000, yaw_us=1500, **ground) is Mode.BOOT
+    assert m.update(TICK, baro_ready=True, rc_valid=True, throttle_us=1000, yaw_us=1500, **ground) is Mode.DISARMED
     assert m.transitions[0].event is ModeEvent.BOOT_DONE and m.transitions[0].t_ns == TICK
 
 
@@ -107,11 +109,67 @@ def test_takeoff_landing_and_auto_disarm() -> None:
     assert p.run(2.0, yaw=1000.0) is Mode.FLYING  # the disarm gesture does nothing in the air
     p.run(1.0, throttle=1000.0, yaw=1500.0, z_ref=0.0)  # setpoint down, still 2 m up
     assert p.m.mode is Mode.FLYING
-    p.run(0.99, z=0.1, vz=0.0)
-    assert p.m.mode is Mode.FLYING
+    p.run(0.99, z=0.1, vz=0.0, collective=0.3)
+    assert p.m.mode is Mode.FLYING and p.m.ground_contact
     assert p.run(0.02) is Mode.ARMED  # on the ground for landed_s = 1 s
+    assert not p.m.ground_contact  # only judged while the controllers fly
     assert p.run(4.9) is Mode.ARMED
     assert p.run(0.2) is Mode.DISARMED  # auto_disarm_s = 5 s
+
+
+def landing_pilot() -> Pilot:
+    """Flying, the throttle stick at the bottom: a landing is being flown."""
+    p = flying_pilot()
+    p.run(0.1, throttle=1000.0, z_ref=-0.2, z=0.05, vz=0.0)
+    return p
+
+
+def test_a_vehicle_hovering_on_its_ground_cushion_has_not_landed() -> None:
+    # The bench's fault-rc-loss before the thrust test: estimate ~0 m, speed ~0, but 0.19 m up
+    # on hover thrust. Height and speed alone declared it landed and the drop hit at 2.9 m/s.
+    p = landing_pilot()
+    assert p.run(5.0, collective=0.68) is Mode.FLYING and not p.m.ground_contact
+
+
+def test_low_collective_while_falling_is_not_a_touchdown() -> None:
+    p = landing_pilot()
+    # 40 % of the hover collective with the accelerometer reading 4 m/s^2 down: in the air
+    assert p.run(5.0, collective=0.3, a_up=-4.0) is Mode.FLYING and not p.m.ground_contact
+    assert p.run(5.0, collective=0.3, a_up=1.5) is Mode.FLYING  # a bounce (upward shock) neither
+    assert p.run(1.01, a_up=0.5) is Mode.ARMED  # standing still on it: landed
+
+
+def test_touchdown_test_thresholds() -> None:
+    hover = 0.72
+    cases = [  # (collective, a_up, z, vz, landed)
+        (0.7 * hover - 0.01, 0.9, 0.0, 0.0, True),
+        (0.7 * hover + 0.01, 0.0, 0.0, 0.0, False),  # thrust that could hold it (in ground effect)
+        (0.3, 1.1, 0.0, 0.0, False),  # accelerating: not standing
+        (0.3, 0.0, 0.95, 0.0, True),  # the estimate may be off near the ground...
+        (0.3, 0.0, -0.8, 0.0, True),  # ...either way (below the take-off level is no objection)
+        (0.3, 0.0, 1.05, 0.0, False),  # ...but not by more than landed_alt_m
+        (0.3, 0.0, 0.0, 0.35, False),  # the estimate still moving
+    ]
+    for collective, a_up, z, vz, landed in cases:
+        p = landing_pilot()
+        mode = p.run(1.1, collective=collective, hover=hover, a_up=a_up, z=z, vz=vz)
+        assert (mode is Mode.ARMED) is landed, (collective, a_up, z, vz)
+
+
+def test_touchdown_is_judged_against_the_hover_collective_given() -> None:
+    # A heavier vehicle (payload) hovers at 0.82: 0.55 could not hold it; the model's 0.72 says it could.
+    p = landing_pilot()
+    assert p.run(2.0, collective=0.55, hover=0.72) is Mode.FLYING
+    assert p.run(1.01, collective=0.55, hover=0.82) is Mode.ARMED
+
+
+def test_no_touchdown_above_the_takeoff_setpoint_or_on_the_ground() -> None:
+    p = flying_pilot()
+    assert p.run(3.0, z_ref=2.0, z=0.0, vz=0.0, collective=0.1) is Mode.FLYING  # not landing
+    assert not p.m.ground_contact
+    p = armed_pilot()
+    p.run(0.5, collective=0.0)
+    assert not p.m.ground_contact  # ARMED: the controllers do not fly
 
 
 def test_rc_loss_in_flight_is_a_latched_failsafe_until_landed() -> None:
@@ -120,7 +178,8 @@ def test_rc_loss_in_flight_is_a_latched_failsafe_until_landed() -> None:
     assert p.m.controllers_active
     assert p.run(1.0, rc_valid=True) is Mode.FAILSAFE_RC  # RC back: still failsafe
     p.run(0.5, z_ref=0.0, z=0.05, vz=0.0)
-    assert p.run(1.0) is Mode.DISARMED
+    assert p.run(3.0) is Mode.FAILSAFE_RC  # hovering thrust near the ground: not landed
+    assert p.run(1.01, collective=0.4) is Mode.DISARMED
 
 
 def test_rc_loss_on_the_ground_disarms() -> None:
@@ -166,7 +225,7 @@ def test_resting_since_marks_the_last_arrival_on_the_ground() -> None:
     assert p.m.mode is Mode.FLYING and p.m.resting_since_ns is None
     p.run(1.0, z=2.0)
     landing_from = p.t
-    p.run(1.2, z_ref=0.0, z=0.1, vz=0.0)
+    p.run(1.2, z_ref=0.0, z=0.1, vz=0.0, collective=0.3)
     assert p.m.mode is Mode.ARMED
     landed = p.m.transitions[-1]
     assert landed.event is ModeEvent.LANDED and p.m.resting_since_ns == landed.t_ns > landing_from
@@ -187,57 +246,69 @@ def test_tables_cover_every_mode() -> None:
 
 
 class ModesMachine(RuleBasedStateMachine):
-    """Random pilots: the table is the only way modes change, gestures really were held."""
+    """Random pilots: the table is the only way modes change, gestures and touchdowns really were held."""
 
     @initialize()
     def start(self) -> None:
         self.m = ModeMachine(ModesParams(), 0.5)
         self.t = 0
         self.arm_since: int | None = None  # the test's own view of the arm gesture
+        self.touchdown_since: int | None = None  # ...and of the touchdown test
         self.seen = 0
         self.interrupted = Mode.DISARMED
 
-    def _update(self, **inputs: float) -> None:
+    def _update(self, collective: float = 0.72, a_up: float = 0.0, **inputs: float) -> None:
         before = self.m.mode
         rc_valid = bool(inputs["rc_valid"])
         arm = rc_valid and inputs["throttle_us"] <= 1050 and inputs["yaw_us"] >= 1900
         self.arm_since = (self.arm_since if self.arm_since is not None else self.t) if arm else None
-        self.m.update(self.t, baro_ready=True, **inputs)  # type: ignore[arg-type]
+        touchdown = (MOTORS[before] is MotorPolicy.CONTROL and inputs["z_ref_m"] <= 0.5 and inputs["z_hat_m"] < 1.0
+                     and abs(inputs["vz_hat_mps"]) < 0.3 and collective < 0.7 * 0.72 and abs(a_up) < 1.0)
+        self.touchdown_since = (self.touchdown_since if self.touchdown_since is not None else self.t) if touchdown else None
+        self.m.update(self.t, baro_ready=True, collective=collective, hover_collective=0.72, a_up_mps2=a_up,
+                      **inputs)  # type: ignore[arg-type]
         if before is Mode.DISARMED and self.m.mode is Mode.ARMED:
             assert self.arm_since is not None and self.t - self.arm_since >= S
         if before is Mode.ARMED and self.m.mode is Mode.FLYING:
             assert inputs["z_ref_m"] > 0.5
+        if self.m.transitions and self.m.transitions[-1].t_ns == self.t and self.m.transitions[-1].event is ModeEvent.LANDED:
+            assert self.touchdown_since is not None and self.t - self.touchdown_since >= S
+        if MOTORS[self.m.mode] is not MotorPolicy.CONTROL or self.m.mode is not before:
+            self.touchdown_since = None  # the machine restarts its hold on any transition
         self.t += TICK
 
     @rule()
     def arm_gesture(self) -> None:
         for _ in range(420):
-            self._update(rc_valid=True, throttle_us=1000.0, yaw_us=2000.0, z_ref_m=0.0, z_hat_m=0.0, vz_hat_mps=0.0)
+            self._update(rc_valid=True, throttle_us=1000.0, yaw_us=2000.0, z_ref_m=0.0, z_hat_m=0.0, vz_hat_mps=0.0,
+                         collective=0.0)
 
     @rule(z=st.sampled_from([0.0, 3.0]))
     def climb(self, z: float) -> None:
         for _ in range(20):
             self._update(rc_valid=True, throttle_us=1300.0, yaw_us=1500.0, z_ref_m=3.0, z_hat_m=z, vz_hat_mps=0.0)
 
-    @rule(rc_valid=st.booleans())
-    def settle_on_the_ground(self, rc_valid: bool) -> None:
+    @rule(rc_valid=st.booleans(), collective=st.sampled_from([0.2, 0.6, 0.72]), a_up=st.sampled_from([0.0, -3.0]))
+    def settle_on_the_ground(self, rc_valid: bool, collective: float, a_up: float) -> None:
         for _ in range(450):
             self._update(rc_valid=rc_valid, throttle_us=1000.0, yaw_us=1500.0, z_ref_m=0.0, z_hat_m=0.0,
-                         vz_hat_mps=0.0)
+                         vz_hat_mps=0.0, collective=collective, a_up=a_up)
 
     @rule(n=st.sampled_from([1, 10, 100, 450]), rc_valid=st.booleans(), throttle=st.sampled_from([1000.0, 1040.0, 1300.0, 1800.0]),
           yaw=st.sampled_from([1000.0, 1500.0, 1950.0]), z=st.sampled_from([0.0, 0.1, 3.0]),
-          vz=st.sampled_from([0.0, 1.0]))
-    def hold_sticks(self, n: int, rc_valid: bool, throttle: float, yaw: float, z: float, vz: float) -> None:
+          vz=st.sampled_from([0.0, 1.0]), collective=st.sampled_from([0.3, 0.72]), a_up=st.sampled_from([0.0, -3.0]))
+    def hold_sticks(self, n: int, rc_valid: bool, throttle: float, yaw: float, z: float, vz: float,
+                    collective: float, a_up: float) -> None:
         z_ref = 10.0 * (throttle - 1000.0) / 1000.0
         for _ in range(n):
             self._update(rc_valid=rc_valid, throttle_us=throttle, yaw_us=yaw, z_ref_m=z_ref, z_hat_m=z,
-                         vz_hat_mps=vz)
+                         vz_hat_mps=vz, collective=collective, a_up=a_up)
 
     @rule()
     def imu_timeout(self) -> None:
         before = self.m.mode
         self.m.imu_lost()
+        self.touchdown_since = None
         assert self.m.mode is (Mode.BOOT if before is Mode.BOOT else Mode.FAILSAFE_IMU)
         if before not in (Mode.BOOT, Mode.FAILSAFE_IMU):
             self.interrupted = before
@@ -246,7 +317,9 @@ class ModesMachine(RuleBasedStateMachine):
     def imu_sample_after_timeouts(self, continuous: bool) -> None:
         before = self.m.mode
         self.m.update(self.t, baro_ready=True, rc_valid=True, throttle_us=1500.0, yaw_us=1500.0, z_ref_m=5.0,
-                      z_hat_m=3.0, vz_hat_mps=0.0, imu_continuous=continuous)
+                      z_hat_m=3.0, vz_hat_mps=0.0, collective=0.72, hover_collective=0.72, a_up_mps2=0.0,
+                      imu_continuous=continuous)
+        self.touchdown_since = None
         self.t += TICK
         if before is Mode.FAILSAFE_IMU:
             assert self.m.mode is (self.interrupted if continuous else Mode.DISARMED)
