@@ -292,10 +292,10 @@ class FlightLoop:
         io_ns = perf() - t_io
         z_baro: float | None = None
         f_adxl: tuple[float, float, float] | None = None
+        refused = self.plausible.refused
         if codes is None:
             self.plausible.baro_Pa(None)  # no previous reading for the next step test
         else:
-            refused = self.plausible.refused
             booting = not self.baro_ref.ready  # at rest, averaging: readings for the references only
             p_Pa = self.analog.baro_pressure_Pa(codes[0])
             if p_Pa is None:
@@ -309,8 +309,6 @@ class FlightLoop:
                 f_adxl = None
             else:
                 f_adxl = self.accel_zero.correct(f_adxl)
-            if self.plausible.refused != refused:
-                self._rare("adc_implausible", "adc.implausible", **self.plausible.counters)
             if p_Pa is not None:
                 if booting:
                     if self.baro_ref.add(p_Pa, t_ns):
@@ -344,7 +342,8 @@ class FlightLoop:
             # the same airframe's other accelerometer must agree (once the offsets are known)
             if self.baro_ref.ready and not self.plausible.accel_agrees(a_up, a_up_xsens):
                 a_up = None
-                self._rare("adc_implausible", "adc.implausible", **self.plausible.counters)
+        if self.plausible.refused != refused:  # this sample's ADC reading was (partly) implausible
+            self._rare("adc_implausible", "adc.implausible", **self.plausible.counters)
         if self.baro_ref.ready:
             self.kf.predict(self._u_applied)
             # In ground effect the rotor wash over the static port makes the barometer read

@@ -412,7 +412,8 @@ class FakeWorld:
     def __init__(self, sticks: Callable[[float], list[float] | None], *, legacy_imu: bool = False,
                  rc_frontend: str = "capture", seed: int = 1, motor_tau_s: float = 0.0,
                  accel_zero_g_error_V: tuple[float, float, float] = (0.0, 0.0, 0.0),
-                 baro_ground_effect_m: float = 0.0) -> None:
+                 baro_ground_effect_m: float = 0.0, thrust_ground_effect_gain: float = 0.0,
+                 mass_kg: float = 1.1) -> None:
         #: wall clock of the lockstep: a tick per sample, a read timeout per starved ADC read
         self.clock = FakeClock()
         self.ports = {name: FakeSerial(name, self.clock, 0.02 if name == "adc" else 0.0)
@@ -424,11 +425,18 @@ class FakeWorld:
                    else FakeSbusRc(self.ports["rc"], sticks))
         self.esc = FakeMaestro(self.ports["esc"])
         self.plant = PlantState()
+        self.M_KG = mass_kg  # the flight code's config says 1.1 kg whatever this is
         self.motor_tau_s = motor_tau_s
         self.accel_zero_g_error_V = accel_zero_g_error_V  # ADXL335 zero-g offsets of this unit (sensor X, Y, Z)
         #: rotor wash at the static port: the baro reads this much low on the ground at hover
         #: thrust, decaying over 0.5 m of height (the bench plant's form)
         self.baro_ground_effect_m = baro_ground_effect_m
+        #: ground effect on the thrust: lift x (1 + gain exp(-z / 0.25 m)) (the ground cushion)
+        self.thrust_ground_effect_gain = thrust_ground_effect_gain
+        #: faults: the barometer reads this much high (m; a spike on the static port)...
+        self.baro_offset_m = 0.0
+        #: ...and bit errors in the data bytes of the next reply, acks intact: channel -> XOR mask
+        self.code_xor: dict[int, int] = {}
         self._thrust_N = [0.0] * 4  # with motor lag: the thrust each motor actually gives
         self.k = -1  # index of the last emitted tick
         self.imu_silent_ticks: set[int] = set()
@@ -451,8 +459,12 @@ class FakeWorld:
     def thrusts_N(self) -> list[float]:
         return self._thrust_N if self.motor_tau_s > 0.0 else self.commanded_thrusts_N()
 
+    def lift_factor(self) -> float:
+        """Ground effect: total lift / total rotor thrust."""
+        return 1.0 + self.thrust_ground_effect_gain * math.exp(-self.plant.z_m / 0.25)
+
     def _specific_force_B(self) -> tuple[float, float, float]:
-        thrust = sum(self.thrusts_N())
+        thrust = sum(self.thrusts_N()) * self.lift_factor()
         if self.plant.z_m <= 0.0 and thrust < self.M_KG * G:
             phi, theta = self.plant.euler_rad[0], self.plant.euler_rad[1]
             # at rest on the ground: f = -g_N in body axes
@@ -465,18 +477,19 @@ class FakeWorld:
             a = math.exp(-dt / self.motor_tau_s)
             self._thrust_N = [c + (f0 - c) * a for f0, c in zip(self._thrust_N, self.commanded_thrusts_N())]
         f = self.thrusts_N()
+        lift = sum(f) * self.lift_factor()
         l = 0.25 / math.sqrt(2.0)
         xy = ((l, l, 1), (-l, -l, 1), (l, -l, -1), (-l, l, -1))
         tau = (sum(-y * fi for (x, y, s), fi in zip(xy, f)), sum(x * fi for (x, y, s), fi in zip(xy, f)),
                sum(self.KQ_OVER_KT_M * s * fi for (x, y, s), fi in zip(xy, f)))
-        on_ground = p.z_m <= 0.0 and sum(f) * math.cos(p.euler_rad[0]) * math.cos(p.euler_rad[1]) < self.M_KG * G
+        on_ground = p.z_m <= 0.0 and lift * math.cos(p.euler_rad[0]) * math.cos(p.euler_rad[1]) < self.M_KG * G
         for i in range(3):
             if on_ground and i < 2:
                 p.omega_radps[i] = 0.0  # the legs keep it level on the ground
                 continue
             p.omega_radps[i] += tau[i] / self.J[i] * dt
             p.euler_rad[i] += p.omega_radps[i] * dt
-        az = sum(f) * math.cos(p.euler_rad[0]) * math.cos(p.euler_rad[1]) / self.M_KG - G
+        az = lift * math.cos(p.euler_rad[0]) * math.cos(p.euler_rad[1]) / self.M_KG - G
         p.vz_mps += az * dt
         p.z_m += p.vz_mps * dt
         if p.z_m <= 0.0:
@@ -485,7 +498,7 @@ class FakeWorld:
     def _adc_code(self, channel: int) -> int:
         if channel == 0:
             wash_m = self.baro_ground_effect_m * sum(self.thrusts_N()) / (self.M_KG * G) * math.exp(-self.plant.z_m / 0.5)
-            h = self.FIELD_ALT_M + self.plant.z_m - wash_m
+            h = self.FIELD_ALT_M + self.plant.z_m - wash_m + self.baro_offset_m
             p_kpa = 101.325 * (1.0 - 2.25577e-5 * h) ** 5.25588
             v = 5.0 * (0.009 * p_kpa - 0.095)
             v_adc = 16.0 * (v - 3.834625) + self.rng.normal(0.0, 0.0005)
@@ -494,7 +507,8 @@ class FakeWorld:
             f = self._specific_force_B()[channel - 1] * (1.0 if channel == 1 else -1.0)
             v_adc = (3.3 * (0.5 + 0.1 * f / G) + self.accel_zero_g_error_V[channel - 1]
                      + self.rng.normal(0.0, 0.0005))
-        return min(4095, max(0, int(math.floor(4096.0 * v_adc / 5.0))))
+        code = min(4095, max(0, int(math.floor(4096.0 * v_adc / 5.0))))
+        return code ^ self.code_xor.pop(channel, 0)
 
     def _tick(self) -> None:
         """Advance to the next tick and emit its IMU sample (unless silenced or stalled)."""

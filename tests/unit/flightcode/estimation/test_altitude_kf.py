@@ -245,3 +245,99 @@ def test_loosened_height_is_re_anchored_by_the_barometer_at_rest(model: Altitude
 
     assert settle(loosen=False) > 0.3  # measured 0.43 m after 1 s
     assert settle(loosen=True) < 0.05  # measured 0.01 m
+
+
+# -- barometer innovation gate ------------------------------------------------------------------
+def _hovering(model: AltitudeModel, gate: float = 25.0, timeout_s: float = 1.0, seconds: float = 10.0,
+              seed: int = 2) -> tuple[AltitudeKF, np.random.Generator]:
+    """A filter settled on a vehicle holding 2 m (baro noise 0.44 m, accelerometer 0.3 m/s^2)."""
+    rng = np.random.default_rng(seed)
+    kf = AltitudeKF(model, r_baro_m2=0.33, baro_gate_chi2=gate, baro_gate_timeout_s=timeout_s)
+    kf.reset(2.0, z_var_m2=0.001)
+    for _ in range(int(seconds / T)):
+        kf.predict(0.0)
+        kf.update(2.0 + float(rng.normal(0.0, 0.44)), float(rng.normal(0.0, 0.3)))
+    return kf, rng
+
+
+def test_gate_rejects_a_baro_spike_that_the_ungated_filter_follows(model: AltitudeModel) -> None:
+    """fault-baro-spike: +150 Pa for 0.2 s reads 12.5 m low. Fused, it drags the estimate
+    (and so the altitude loop) metres away; gated, every spike reading is refused and counted."""
+
+    def worst_error(gate: float) -> tuple[float, AltitudeKF]:
+        kf, rng = _hovering(model, gate)
+        worst = 0.0
+        for k in range(int(3.0 / T)):
+            spike = -12.5 if k < 80 else 0.0
+            kf.predict(0.0)
+            kf.update(2.0 + spike + float(rng.normal(0.0, 0.44)), float(rng.normal(0.0, 0.3)))
+            worst = max(worst, abs(kf.z_m - 2.0))
+        return worst, kf
+
+    ungated, kf = worst_error(math.inf)
+    assert ungated > 1.0 and kf.counters["baro_rejected"] == 0  # measured 2.76 m
+    gated, kf = worst_error(25.0)
+    assert gated < 0.15  # measured 0.05 m (the noise)
+    assert kf.counters["baro_rejected"] == 80 and kf.counters["baro_reanchored"] == 0
+    assert kf.baro_reject_run == 0  # readings accepted again after the spike
+
+
+def test_gate_lets_gaussian_noise_and_a_climb_through(model: AltitudeModel) -> None:
+    # 60 s of 0.44 m baro noise at hover and a 1 m/s climb with a consistent accelerometer:
+    # a 5-sigma gate refuses nothing (one false rejection per ~1.7 million readings).
+    kf, rng = _hovering(model, seconds=60.0)
+    assert kf.counters["baro_rejected"] == 0
+    z, vz = 2.0, 0.0
+    for k in range(int(8.0 / T)):
+        a = 1.0 if k < 400 else (-1.0 if 2400 <= k < 2800 else 0.0)  # to 1 m/s, 5 s, back to 0
+        vz += a * T
+        z += vz * T
+        kf.predict(a / model.k_over_m_mps2)
+        kf.update(z + float(rng.normal(0.0, 0.44)), a + float(rng.normal(0.0, 0.3)))
+    assert kf.counters["baro_rejected"] == 0
+    assert kf.z_m == pytest.approx(z, abs=0.3)
+
+
+def test_gate_decision_is_the_chi_square_test(model: AltitudeModel) -> None:
+    """One reading: refused exactly when innovation^2 > chi2 (P_zz + R); a refused reading
+    leaves state and covariance untouched."""
+    kf, _ = _hovering(model, seconds=2.0)
+    kf.predict(0.0)
+    s = kf.P[0, 0] + kf.r_baro_m2
+    for factor, fused in ((0.99, True), (1.01, False)):
+        trial = copy.deepcopy(kf)
+        x, p = trial.x, trial.P
+        innovation = factor * math.sqrt(25.0 * s)
+        assert trial.update(trial.z_m - innovation, None) is fused
+        if fused:
+            assert trial.z_m < x[0]
+        else:
+            np.testing.assert_array_equal(trial.x, x)
+            np.testing.assert_array_equal(trial.P, p)
+            assert trial.counters["baro_rejected"] == 1
+    assert kf.update(None, 0.0) is True  # no reading: nothing refused
+
+
+def test_a_lasting_disagreement_re_anchors_the_height_to_the_baro(model: AltitudeModel) -> None:
+    """A baro offset that stays (weather, a blocked port, or the estimate was the wrong one)
+    is refused for baro_gate_timeout_s, then believed: the height jumps to it at once."""
+    kf, rng = _hovering(model, timeout_s=0.5)
+    for k in range(int(1.0 / T)):
+        kf.predict(0.0)
+        kf.update(-8.0 + float(rng.normal(0.0, 0.44)), float(rng.normal(0.0, 0.3)))
+        if k == 198:
+            assert kf.z_m == pytest.approx(2.0, abs=0.1) and kf.baro_reject_run == 199
+        if k == 199:  # the 200th refusal in a row (0.5 s): re-anchored on this reading
+            assert kf.counters["baro_reanchored"] == 1 and kf.baro_reject_run == 0
+            assert kf.z_m == pytest.approx(-8.0, abs=1.0)
+    assert kf.counters["baro_rejected"] == 200 and kf.counters["baro_reanchored"] == 1
+    assert kf.z_m == pytest.approx(-8.0, abs=0.2)
+    assert np.all(np.linalg.eigvalsh(kf.P) >= 0.0)
+
+
+def test_gate_parameters_are_checked(model: AltitudeModel) -> None:
+    with pytest.raises(ValueError):
+        AltitudeKF(model, baro_gate_chi2=0.0)
+    with pytest.raises(ValueError):
+        AltitudeKF(model, baro_gate_timeout_s=-1.0)
+    assert AltitudeKF(model).baro_gate_chi2 == math.inf  # the paper's filter: no gate unless asked
