@@ -384,7 +384,11 @@ class FlightLoop:
         modes = self.modes
         before = modes.mode
         landing = before is Mode.FAILSAFE_RC or (before is Mode.FLYING and z_stick <= cfg.altitude.takeoff_alt_m)
-        if landing:
+        if before is Mode.FAILSAFE_IMU:
+            # the first sample after an IMU timeout: if only the delivery stalled, the interrupted
+            # mode resumes with its setpoint, and any descent carries on on sensor time
+            z_ref = self.descent.step(dt_s) if self.descent.active else self._z_ref_m
+        elif landing:
             if not self.descent.active:
                 self.descent.start(min(self._z_ref_m, z_hat))
             z_ref = self.descent.step(dt_s)

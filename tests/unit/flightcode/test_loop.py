@@ -387,3 +387,21 @@ def test_corrupted_adc_data_with_good_acks_is_dropped() -> None:
     assert abs(loop.kf.z_m - z_hat) < 0.05 and loop.kf.counters["baro_rejected"] == 0
     loop.run(max_iterations=400)
     assert loop.plausible.refused == 4 and abs(w.plant.z_m - 2.0) < 0.3
+
+
+def test_a_delivery_stall_during_a_failsafe_descent_keeps_the_descent_going() -> None:
+    # An IMU timeout (lockstep delivery stall) in the middle of the failsafe descent: the
+    # failsafe resumes with its setpoint where it was, not restarted from the lost stick's 0 m.
+    loop, w, _ = run(lambda t: pilot(t, lost_at=4.0), 2000)  # 2 m, RC lost at 4 s
+    assert loop.modes.mode is Mode.FAILSAFE_RC and loop.descent.active
+    refs = []
+    for i in range(3):
+        refs.append(loop._z_ref_m)
+        w.imu_stalled_reads = 1
+        assert loop.step() is None and loop.modes.mode is Mode.FAILSAFE_IMU
+        loop.run(max_iterations=40)
+        assert loop.modes.mode is Mode.FAILSAFE_RC
+    refs.append(loop._z_ref_m)
+    # 40 samples of sensor time per round, the stall none: 40 x 2.5 ms x 0.5 m/s
+    assert [a - b for a, b in zip(refs, refs[1:])] == pytest.approx([0.05] * 3, abs=1e-9)
+    assert refs[-1] > 1.0
