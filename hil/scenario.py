@@ -79,6 +79,8 @@ class StickEntry(_Strict):
             raise ValueError("pulse_us and sine need a channel (1..8)")
         if self.action == "loss" and self.duration_s is None:
             raise ValueError("action 'loss' needs duration_s")
+        if self.action in ("arm", "disarm") and self.duration_s is not None and self.duration_s <= 1.0:
+            raise ValueError("an arm/disarm gesture must be held longer than the 1 s the flight code needs (duration_s)")
         return self
 
 

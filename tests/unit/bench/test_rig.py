@@ -84,3 +84,10 @@ def test_a_fault_the_rig_cannot_apply_is_refused_at_load(tmp_path: Path) -> None
     with pytest.raises(ConfigError) as err:
         ScenarioRunner(load_scenario(bad), rig, bad)
     assert str(bad) in str(err.value) and "#0" in str(err.value) and "port" in str(err.value)
+
+
+def test_a_gesture_too_short_for_the_flight_code_is_refused(tmp_path: Path) -> None:
+    bad = tmp_path / "short-arm.toml"
+    bad.write_text('[scenario]\nname = "x"\nduration_s = 5\n[[sticks]]\nt_s = 1\naction = "arm"\nduration_s = 0.5\n')
+    with pytest.raises(ConfigError, match=r"sticks\.0.*longer than the 1 s"):
+        load_scenario(bad)
