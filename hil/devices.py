@@ -286,20 +286,9 @@ class DeviceSet:
         self._rc_want = None
 
     async def emit_rc(self, t_ns: int) -> None:
-        edges = self.ppm.edges_until(t_ns)
-        frames = self.ppm.take_frames()
-        if frames:
-            self.rc_frames.extend(frames)
-        if edges:
-            self.rc.feed_edges(edges)
-        self.rc.advance(t_ns)
-        out = self._filtered("rc", self.rc.take_output(), t_ns)
-        port = self.ports.get("rc")
-        if out and port is not None:
-            await port.write_confirmed(out)
-        events = self.rc.take_events()
-        if events:
-            self._dispatch("rc", events)
+        """Write the RC bytes due by ``t_ns`` and wait until they are readable (both steps)."""
+        self.emit_rc_early(t_ns)
+        await self.confirm_rc()
 
     def latch_analog(self, t_ns: int) -> None:
         s = self.sensors
