@@ -40,11 +40,11 @@ def _fail(message: str, code: int = 2) -> None:
 
 @app.command()
 def run(
-    rig: Annotated[Optional[str], typer.Argument(help="Rig file or name under rigs/ (default: paper-quad).")] = None,
-    scenario: Annotated[Optional[str], typer.Option("--scenario", "-s", help="Scenario file or name under rigs/scenarios/ (default: the rig's).")] = None,
+    rig: Annotated[str | None, typer.Argument(help="Rig file or name under rigs/ (default: paper-quad).")] = None,
+    scenario: Annotated[str | None, typer.Option("--scenario", "-s", help="Scenario file or name under rigs/scenarios/ (default: the rig's).")] = None,
     mode: Annotated[str, typer.Option(help="lockstep (deterministic, as fast as possible) or realtime (400 Hz wall clock).")] = "lockstep",
-    seed: Annotated[Optional[int], typer.Option(help="Run seed (default: the scenario's).")] = None,
-    duration: Annotated[Optional[float], typer.Option(help="Sim seconds to run (default: the scenario's).")] = None,
+    seed: Annotated[int | None, typer.Option(help="Run seed (default: the scenario's).")] = None,
+    duration: Annotated[float | None, typer.Option(help="Sim seconds to run (default: the scenario's).")] = None,
     out: Annotated[Path, typer.Option(help="Directory for the MCAP log.")] = Path("logs"),
     no_record: Annotated[bool, typer.Option("--no-record", help="Do not write an MCAP file.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
@@ -133,10 +133,10 @@ def run(
 
 @app.command()
 def devices(
-    rig: Annotated[Optional[str], typer.Argument(help="Rig file or name under rigs/ (default: paper-quad).")] = None,
-    scenario: Annotated[Optional[str], typer.Option("--scenario", "-s", help="Scenario whose sticks drive the RC (default: the rig's).")] = None,
+    rig: Annotated[str | None, typer.Argument(help="Rig file or name under rigs/ (default: paper-quad).")] = None,
+    scenario: Annotated[str | None, typer.Option("--scenario", "-s", help="Scenario whose sticks drive the RC (default: the rig's).")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the device models.")] = 1,
-    duration: Annotated[Optional[float], typer.Option(help="Stop after this many seconds (default: until Ctrl-C).")] = None,
+    duration: Annotated[float | None, typer.Option(help="Stop after this many seconds (default: until Ctrl-C).")] = None,
 ) -> None:
     """Bring the emulated devices up on ptys and print their paths, streaming in real time.
 
@@ -159,7 +159,7 @@ def devices(
 @app.command()
 def recover(
     log: Annotated[Path, typer.Argument(help="A killed run's .mcap.part (or .mcap) file.")],
-    out: Annotated[Optional[Path], typer.Option(help="Output file (default: LOG without .part, or LOG.recovered.mcap).")] = None,
+    out: Annotated[Path | None, typer.Option(help="Output file (default: LOG without .part, or LOG.recovered.mcap).")] = None,
 ) -> None:
     """Salvage a killed run's MCAP: every complete chunk, metadata and attachments."""
     from hil.record import recover as do_recover
@@ -176,7 +176,7 @@ def recover(
 @app.command()
 def report(
     log: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
-    out: Annotated[Optional[Path], typer.Option(help="Directory for the PNG plots (default: next to the log).")] = None,
+    out: Annotated[Path | None, typer.Option(help="Directory for the PNG plots (default: next to the log).")] = None,
 ) -> None:
     """Plot a run: attitude, altitude, motors and timing, as PNG files."""
     from hil.report import make_report
@@ -191,7 +191,7 @@ def report(
 def timing(
     log: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
     budget_us: Annotated[float, typer.Option(help="Response-time budget per sample (us).")] = 2500.0,
-    png: Annotated[Optional[Path], typer.Option(help="Histogram PNG (default: LOG_timing.png next to the log).")] = None,
+    png: Annotated[Path | None, typer.Option(help="Histogram PNG (default: LOG_timing.png next to the log).")] = None,
 ) -> None:
     """Timing of the 400 Hz loop from a log: period, response latency, jitter, misses, compute."""
     from hil.timing import analyze_log, plot_latency
@@ -240,16 +240,17 @@ def perf(
 @app.command()
 def replay(
     log: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
-    port: Annotated[Optional[list[str]], typer.Option("--port", "-p", help="Replay only this port (repeatable).")] = None,
+    port: Annotated[list[str] | None, typer.Option("--port", "-p", help="Replay only this port (repeatable).")] = None,
     speed: Annotated[float, typer.Option(help="Sim seconds per wall second; 0 = as fast as the clients read.")] = 1.0,
-    from_: Annotated[Optional[float], typer.Option("--from", help="Skip bytes before this sim time (s); 0 skips boot.")] = None,
+    from_: Annotated[float | None, typer.Option("--from", help="Skip bytes before this sim time (s); 0 skips boot.")] = None,
     no_wait: Annotated[bool, typer.Option("--no-wait", help="Start at once, not when every port has been opened.")] = False,
     verify_: Annotated[bool, typer.Option("--verify", help="Re-run the recorded run from the log's attachments and compare the control wires byte for byte.")] = False,
     out: Annotated[Path, typer.Option(help="With --verify: where the re-run's log goes.")] = Path("logs/verify"),
 ) -> None:
     """Play a recorded session's device bytes back on ptys, or --verify it by re-running it."""
     from hil.record import TornRecordingError
-    from hil.replay import ReplayError, replay as do_replay, verify
+    from hil.replay import ReplayError, verify
+    from hil.replay import replay as do_replay
 
     if not log.exists():
         _fail(f"{log}: no such file")
@@ -268,11 +269,11 @@ def replay(
 @app.command()
 def campaign(
     file: Annotated[Path, typer.Argument(help="A campaign TOML (rigs/campaigns/*.toml).")],
-    workers: Annotated[Optional[int], typer.Option(help="Parallel runs (default: one per two cores).")] = None,
-    scheduler: Annotated[Optional[str], typer.Option(help="A Dask scheduler address, e.g. tcp://host:8786.")] = None,
+    workers: Annotated[int | None, typer.Option(help="Parallel runs (default: one per two cores).")] = None,
+    scheduler: Annotated[str | None, typer.Option(help="A Dask scheduler address, e.g. tcp://host:8786.")] = None,
     executor: Annotated[str, typer.Option(help="auto (Dask if installed), dask or process.")] = "auto",
-    out: Annotated[Optional[Path], typer.Option(help="Campaign output directory (default: the file's).")] = None,
-    keep_logs: Annotated[Optional[str], typer.Option(help="all, failed or none (default: the file's).")] = None,
+    out: Annotated[Path | None, typer.Option(help="Campaign output directory (default: the file's).")] = None,
+    keep_logs: Annotated[str | None, typer.Option(help="all, failed or none (default: the file's).")] = None,
 ) -> None:
     """Many runs (scenarios x seeds x sweeps), each in its own process, summarized."""
     from hil.campaign import KeepLogs, load_campaign, run_campaign
@@ -293,7 +294,7 @@ def campaign(
 
 @app.command()
 def faults(
-    layer: Annotated[Optional[str], typer.Option(help="Only this layer (plant, sensor, wire, device, process...).")] = None,
+    layer: Annotated[str | None, typer.Option(help="Only this layer (plant, sensor, wire, device, process...).")] = None,
 ) -> None:
     """The fault catalogue: every kind with its parameters, units and defaults."""
     from hil.faults import print_catalogue

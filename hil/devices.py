@@ -63,8 +63,8 @@ class DeviceSet:
         from emulators.rc.capture import CaptureFrontEnd
         from emulators.rc.ppm import PpmGenerator
         from emulators.rc.sbus import SbusConverter
-        from emulators.xbee.module import XBeeModule
         from emulators.xbee.link import RadioLink
+        from emulators.xbee.module import XBeeModule
         from emulators.xsens.device import MtiDevice
 
         self.rig = rig

@@ -48,6 +48,7 @@ class FlightProcess:
         self.proc: asyncio.subprocess.Process | None = None
         self._readers: list[asyncio.Task[None]] = []
         self.exited = asyncio.Event()
+        self._watcher: asyncio.Task[None] | None = None
         self.killed_by_bench = False
 
     async def start(self, extra_env: dict[str, str] | None = None) -> None:
@@ -70,7 +71,8 @@ class FlightProcess:
             asyncio.create_task(self._pump(self.proc.stdout, "stdout")),
             asyncio.create_task(self._pump(self.proc.stderr, "stderr")),
         ]
-        asyncio.create_task(self._watch())
+        # keep a reference: the loop holds tasks weakly, and this one sets ``exited``
+        self._watcher = asyncio.create_task(self._watch())
 
     async def _pump(self, stream: asyncio.StreamReader, name: str) -> None:
         while True:

@@ -51,9 +51,8 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
     from hil.bench import Mode
     from hil.plant.bench import measure_tick_cost
     from hil.record.perf import measure_recording
-    from hil.run import run_flight
-
     from hil.rig import load_rig
+    from hil.run import run_flight
 
     rep = PerfReport()
     rig_plant = load_rig(None).plant

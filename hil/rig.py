@@ -22,7 +22,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from hil.config import ConfigError, check_keys, load_toml, resolve_rig, resolve_scenario, validate
+from hil.config import (
+    ConfigError,
+    check_keys,
+    load_toml,
+    resolve_rig,
+    resolve_scenario,
+    validate,
+)
 
 #: table -> "module:Class" of the component parameters it validates into
 COMPONENTS: dict[str, str] = {
