@@ -96,11 +96,11 @@ def _metric(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> float:
     if m == "rise_time":
         start = c.start if c.start is not None else float(vs[0])
         span = c.target - start
-        lo = np.nonzero((vs - start) >= 0.1 * span)[0]
-        hi = np.nonzero((vs - start) >= 0.9 * span)[0]
-        if lo.size == 0 or hi.size == 0:
+        at_10 = np.nonzero((vs - start) >= 0.1 * span)[0]
+        at_90 = np.nonzero((vs - start) >= 0.9 * span)[0]
+        if at_10.size == 0 or at_90.size == 0:
             return math.inf
-        return float(ts[hi[0]] - ts[lo[0]])
+        return float(ts[at_90[0]] - ts[at_10[0]])
     raise ValueError(f"unknown metric {m}")
 
 

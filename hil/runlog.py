@@ -12,7 +12,7 @@ import dataclasses
 import enum
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from hil.criteria import CriterionResult
     from hil.devices import DeviceSet
     from hil.record import Recorder
+    from hil.record.process import ProcessRecorder
     from hil.rig import Rig
     from hil.transport.base import Port
 
@@ -60,10 +61,10 @@ class RunLogger:
 
     def __init__(
         self,
-        recorder: Recorder | None,
+        recorder: Recorder | ProcessRecorder | None,
         trace: Trace,
         devices: DeviceSet,
-        ports: dict[str, Port],
+        ports: Mapping[str, Port],
         rig: Rig,
         run_start_unix_ns: int = 0,
     ) -> None:

@@ -72,13 +72,13 @@ class Trace:
             if right in self._series and left not in self._series:
                 # compare at the irregular series' own instants (e.g. 50 Hz telemetry):
                 # holding it on the 400 Hz grid would add its sample-and-hold error
-                times, values = self._series[right]
-                st = np.asarray(times, dtype=np.int64)
+                series_t, series_v = self._series[right]
+                st_ns = np.asarray(series_t, dtype=np.int64)
                 t_grid, a = self.signal(left, grid)
                 grid_ns = np.rint(t_grid * 1e9).astype(np.int64)
-                idx = np.searchsorted(grid_ns, st, side="right") - 1
+                idx = np.searchsorted(grid_ns, st_ns, side="right") - 1
                 ok = idx >= 0
-                return st[ok] / 1e9, a[idx[ok]] - np.asarray(values, dtype=float)[ok]
+                return st_ns[ok] / 1e9, a[idx[ok]] - np.asarray(series_v, dtype=float)[ok]
             t_s, a = self.signal(left, grid)
             _, b = self.signal(right, grid)
             return t_s, a - b
@@ -88,9 +88,9 @@ class Trace:
             name, col = m.group("base"), int(m.group("idx"))
         if name in self._series:
             t_s = self.tick_times_s(grid)
-            times, values = self._series[name]
-            st = np.asarray(times, dtype=np.int64) / 1e9
-            v = np.asarray(values, dtype=float)
+            series_t, series_v = self._series[name]
+            st = np.asarray(series_t, dtype=np.int64) / 1e9
+            v = np.asarray(series_v, dtype=float)
             idx = np.searchsorted(st, t_s, side="right") - 1
             held = np.where(idx >= 0, v[np.clip(idx, 0, None)], np.nan) if len(v) else np.full_like(t_s, np.nan)
             return t_s, held
