@@ -1,18 +1,28 @@
 """The run loop: boot, then the 400 Hz tick in lockstep or realtime.
 
-One tick k (t_k = k * tick_ns), see docs/architecture.md:
+One tick k (t_k = k * tick_ns), see docs/architecture.md and docs/time.md:
 
 1. scenario actions due by t_k (sticks are continuous; plant events and faults fire);
 2. ESC models -> throttles -> plant steps to t_k;
-3. RC edges due by t_k are written and confirmed delivered (ordering across ports);
+3. RC edges due by t_k are written and made readable (ordering across ports);
 4. analog values are latched for t_k;
 5. the IMU sample k is emitted;
-6. lockstep: wait for the flight code's ESC command (the barrier; a timeout is a miss);
+6. lockstep: wait until the flight code has dealt with it (see below);
    realtime: wait for the next absolute wall deadline, commands apply when they arrive;
 7. the telemetry link moves packets; the tick is recorded.
 
-Sim time 0 is the first IMU sample. Boot (device configuration by the flight code)
-happens before it at negative sim time, paced by the wall clock.
+Lockstep runs on one of two clocks (``Clock``):
+
+* ``VIRTUAL`` (the default): the flight code's clocks and timeouts run on sim time through
+  the clock shim, and the bench is its scheduler (:mod:`hil.vtime`): after writing sample k
+  it waits until the flight code is idle, then moves sim time to the next tick or to the
+  earliest deadline the flight code waits for, whichever comes first. Boot happens in sim
+  time too. Nothing depends on the host's speed or load.
+* ``WALL`` (the fallback where the shim cannot be preloaded, said loudly): sample k's ESC
+  command is the barrier, awaited for ``barrier_timeout_s`` of wall time (a miss); boot runs
+  at negative sim time paced by the wall clock.
+
+Sim time 0 is the first IMU sample after boot.
 """
 
 from __future__ import annotations
@@ -23,12 +33,21 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from hil import clock
-from hil.devices import DeviceSet
+from hil.devices import DeviceSet, LatencySample
+from hil.vtime.scheduler import VirtualClock
 
 
 class Mode(enum.Enum):
     LOCKSTEP = "lockstep"
     REALTIME = "realtime"
+
+
+class Clock(enum.Enum):
+    """The clock the flight code lived on during a run."""
+
+    VIRTUAL = "virtual"  #: lockstep, flight code on sim time (clock shim)
+    WALL = "wall"  #: lockstep fallback, flight code on the host clock
+    REALTIME = "realtime"  #: realtime mode: everything on the host clock
 
 
 class EndReason(enum.Enum):
@@ -43,20 +62,27 @@ class BootError(Exception):
     """The flight code did not configure a device in time (message names the device)."""
 
 
+#: realtime: a tick that starts this late counts as late
+LATE_NS = 1_000_000
+
+
 @dataclass
 class TickStats:
     """Timing of the run, host ns unless noted."""
 
     ticks: int = 0
     samples: int = 0  #: ticks on which an IMU sample was emitted
-    barrier_misses: int = 0  #: lockstep: no ESC command within the timeout
+    barrier_misses: int = 0  #: lockstep: no ESC command for a sample (before the next tick)
     late_ticks: int = 0  #: realtime: tick started more than 1 ms late
-    latencies_ns: list[int] = field(default_factory=list)  #: IMU emit -> ESC command arrival
+    latencies_ns: list[int] = field(default_factory=list)  #: IMU emit -> ESC command (wall; sim in VIRTUAL)
     lateness_ns: list[int] = field(default_factory=list)  #: realtime pacer lateness
     tick_cost_ns: list[int] = field(default_factory=list)  #: bench work per tick (excl. waits)
+    fc_cpu_ns: list[int] = field(default_factory=list)  #: VIRTUAL: flight-code CPU per sample, host ns
     wall_start_ns: int = 0
     wall_end_ns: int = 0
     esc_commands: int = 0
+    boot_sim_ns: int = 0  #: VIRTUAL: sim time the flight code took to configure its devices
+    clock: Clock = Clock.WALL
 
 
 TickHook = Callable[[int, int], None]
@@ -78,6 +104,9 @@ class TickLoop:
         after_tick: TickHook | None = None,
         flight_exited: asyncio.Event | None = None,
         flight_running: Callable[[], bool] | None = None,
+        vclock: VirtualClock | None = None,
+        attach_timeout_s: float = 10.0,
+        on_fallback: Callable[[str], None] | None = None,
     ) -> None:
         self.devices = devices
         self.mode = mode
@@ -89,35 +118,69 @@ class TickLoop:
         self.after_tick = after_tick
         self.flight_exited = flight_exited or asyncio.Event()
         #: False while no flight code process exists (a restart fault's downtime): no one
-        #: can answer the barrier then, so the tick does not wait for it
+        #: can answer, so the tick does not wait
         self.flight_running = flight_running or (lambda: True)
-        self.stats = TickStats()
+        self.vclock = vclock if mode is Mode.LOCKSTEP else None
+        self.attach_timeout_s = attach_timeout_s
+        self.on_fallback = on_fallback
+        self.fallback_reason = ""
+        self.stats = TickStats(clock=Clock.REALTIME if mode is Mode.REALTIME else Clock.WALL)
         self.t_ns = -int(boot_timeout_s * 1e9)
         self.k = -1
         self._barrier: asyncio.Future[int] | None = None
         self._rt_emit: tuple[int, int] | None = None
+        self._awaiting: int | None = None  #: VIRTUAL: the sample whose command is due
+        self._arrival: tuple[int, int] | None = None  #: VIRTUAL: (host ns, sim ns) of that command
         devices.on_esc_command = self._esc_command
 
-    # -- barrier ------------------------------------------------------------------------------
-    def _esc_command(self, t_host_ns: int) -> None:
+    # -- commands ---------------------------------------------------------------------------------
+    def _esc_command(self, t_host_ns: int, t_ns: int) -> None:
         self.stats.esc_commands += 1
         fut = self._barrier
-        if fut is not None and not fut.done():
+        if self._awaiting is not None:
+            if self._arrival is None:
+                self._arrival = (t_host_ns, t_ns)
+        elif fut is not None and not fut.done():
             fut.set_result(t_host_ns)
         elif self._rt_emit is not None:
             # realtime: the first command after a sample answers that sample
-            t_ns, t_emit = self._rt_emit
+            t_sample, t_emit = self._rt_emit
             self._rt_emit = None
             self.stats.latencies_ns.append(t_host_ns - t_emit)
-            self.devices.note_latency(t_ns, t_emit, t_host_ns)
+            self.devices.note_latency(LatencySample(t_sample, t_emit, t_host_ns))
 
-    # -- boot ------------------------------------------------------------------------------------
+    # -- boot ---------------------------------------------------------------------------------------
     async def boot(self) -> None:
-        """Let the flight code configure the devices; sim time runs negative on the wall clock.
+        """Let the flight code configure the devices (sim time runs negative).
 
         Ends when every required device reports configured; raises :class:`BootError`
-        naming the devices that were not, or if the flight code exits first.
-        """
+        naming the devices that were not, or if the flight code exits first."""
+        if self.vclock is not None:
+            vc = self.vclock
+            if await vc.wait_attached(self.attach_timeout_s, self._alive):
+                self.stats.clock = Clock.VIRTUAL
+                return await self._boot_virtual(vc)
+            if self.flight_exited.is_set():
+                raise BootError("the flight code exited during boot; not configured: "
+                                + ", ".join(self.devices.unconfigured()))
+            self._fall_back(f"the flight code did not load the clock shim within {self.attach_timeout_s:g} s "
+                            "(a static or set-user-ID program, or it clears LD_PRELOAD)")
+        await self._boot_wall()
+
+    def _fall_back(self, reason: str) -> None:
+        self.vclock = None
+        self.fallback_reason = reason
+        self.stats.clock = Clock.WALL
+        if self.on_fallback is not None:
+            self.on_fallback(reason)
+
+    def _alive(self) -> bool:
+        return not self.flight_exited.is_set()
+
+    def _missing(self) -> str:
+        return "; ".join(f"{name}: {why}" for name, why in self.devices.unconfigured().items())
+
+    async def _boot_wall(self) -> None:
         start = clock.monotonic_ns()
         boot_ns = int(self.boot_timeout_s * 1e9)
         while True:
@@ -130,30 +193,129 @@ class TickLoop:
             if self.flight_exited.is_set():
                 raise BootError("the flight code exited during boot; not configured: " + ", ".join(missing))
             if elapsed > boot_ns:
-                details = "; ".join(f"{name}: {why}" for name, why in missing.items())
-                raise BootError(f"not configured within {self.boot_timeout_s:g} s: {details}")
+                raise BootError(f"not configured within {self.boot_timeout_s:g} s: {self._missing()}")
             await asyncio.sleep(0.001)
 
-    # -- ticks -----------------------------------------------------------------------------------
+    async def _boot_virtual(self, vc: VirtualClock) -> None:
+        """Boot on sim time: device timers on the tick grid, the flight code's own deadlines
+        exactly. The flight code's start-up (imports, parsing) costs no sim time."""
+        boot_ns = int(self.boot_timeout_s * 1e9)
+        t = -boot_ns
+        vc.start(t)
+        while True:
+            self.t_ns = t
+            vc.set_time(t)
+            self.devices.advance_boot(t)
+            vc.wake_due()
+            await self._settle()
+            if self.flight_exited.is_set():
+                raise BootError("the flight code exited during boot; not configured: "
+                                + ", ".join(self.devices.unconfigured()))
+            if not self.devices.unconfigured():
+                break
+            deadline = vc.next_deadline()
+            nxt = t + self.tick_ns if deadline is None else min(t + self.tick_ns, deadline)
+            if nxt >= 0:
+                raise BootError(f"not configured within {self.boot_timeout_s:g} s of sim time: {self._missing()}")
+            t = nxt
+        self.stats.boot_sim_ns = t + boot_ns
+        vc.cpu_ns()  # start-up and boot are not a sample's compute
+        # The first sample comes one tick after the flight code started the IMU; the plant's
+        # clock starts there at 0 while the flight code's clock runs on without a jump.
+        vc.rebase(t + self.tick_ns, 0)
+
+    # -- ticks ----------------------------------------------------------------------------------------
     async def run(self) -> EndReason:
         """Run ticks until the duration, the flight code's exit, or cancellation."""
-        loop = asyncio.get_running_loop()
         self.stats.wall_start_ns = clock.monotonic_ns()
+        try:
+            if self.vclock is not None:
+                return await self._run_virtual(self.vclock)
+            return await self._run_wall()
+        finally:
+            self.stats.wall_end_ns = clock.monotonic_ns()
+
+    async def _settle(self) -> None:
+        """Until the flight code is idle. When there is none to wait for (a restart's downtime,
+        an exit being reaped), yield once so process management can run."""
+        assert self.vclock is not None
+        if not await self.vclock.idle(self.flight_running):
+            await asyncio.sleep(0)
+
+    async def _advance_to(self, vc: VirtualClock, t_ns: int) -> None:
+        """Move sim time to ``t_ns``, stopping at every flight-code deadline on the way."""
+        while True:
+            await self._settle()
+            if self.flight_exited.is_set():
+                return
+            deadline = vc.next_deadline()
+            if deadline is None or deadline >= t_ns:
+                break
+            vc.set_time(deadline)
+            self.devices.t_ns = deadline  # bytes written now are stamped with that time
+            vc.wake_due()
+        vc.set_time(t_ns)
+
+    async def _run_virtual(self, vc: VirtualClock) -> EndReason:
+        devices, stats = self.devices, self.stats
+        tick_ns = self.tick_ns
+        for k in range(self.duration_ns // tick_ns + 1):
+            t_ns = k * tick_ns
+            await self._advance_to(vc, t_ns)
+            if self.flight_exited.is_set():
+                return EndReason.FLIGHT_EXITED
+            work_start = clock.monotonic_ns()
+            self.k, self.t_ns = k, t_ns
+            if self.before_tick is not None:
+                self.before_tick(k, t_ns)
+            devices.emit_rc_early(t_ns)
+            devices.actuate_and_step(t_ns)
+            devices.latch_analog(t_ns)
+            vc.flush_written()  # everything but the sample is readable before the sample wakes it
+            self._awaiting, self._arrival = k, None
+            emitted, due = devices.emit_imu(t_ns)
+            vc.wake_due()  # a deadline at exactly t_k ends after the sample is there
+            t_emit = clock.monotonic_ns()
+            work = t_emit - work_start
+            await self._settle()
+            self._awaiting = None
+            cpu_ns = vc.cpu_ns()
+            if emitted:
+                stats.samples += 1
+            if (emitted or due) and self.flight_running():
+                stats.fc_cpu_ns.append(cpu_ns)
+                arrival = self._arrival
+                if arrival is None:
+                    stats.barrier_misses += 1
+                    devices.note_latency(LatencySample(t_ns, t_emit, None, fc_cpu_ns=cpu_ns))
+                else:
+                    stats.latencies_ns.append(arrival[1] - t_ns)
+                    devices.note_latency(LatencySample(t_ns, t_emit, arrival[0], arrival[1], cpu_ns))
+            after = clock.monotonic_ns()
+            devices.finish_tick(t_ns)
+            if self.after_tick is not None:
+                self.after_tick(k, t_ns)
+            stats.tick_cost_ns.append(work + clock.monotonic_ns() - after)
+            stats.ticks += 1
+        return EndReason.COMPLETED
+
+    async def _run_wall(self) -> EndReason:
+        loop = asyncio.get_running_loop()
         pacer = clock.RealtimePacer() if self.mode is Mode.REALTIME else None
-        devices = self.devices
+        devices, stats = self.devices, self.stats
         tick_ns = self.tick_ns
         timeout_s = self.barrier_timeout_s
-        n_ticks = self.duration_ns // tick_ns + 1
         try:
-            for k in range(n_ticks):
+            for k in range(self.duration_ns // tick_ns + 1):
                 if self.flight_exited.is_set():
                     return EndReason.FLIGHT_EXITED
                 t_ns = k * tick_ns
+                lateness = 0
                 if pacer is not None:
-                    lateness = await pacer.wait(self.stats.wall_start_ns + t_ns)
-                    self.stats.lateness_ns.append(lateness)
-                    if lateness > 1_000_000:
-                        self.stats.late_ticks += 1
+                    lateness = await pacer.wait(stats.wall_start_ns + t_ns)
+                    stats.lateness_ns.append(lateness)
+                    if lateness > LATE_NS:
+                        stats.late_ticks += 1
                 work_start = clock.monotonic_ns()
                 self.k, self.t_ns = k, t_ns
                 if self.before_tick is not None:
@@ -170,33 +332,32 @@ class TickLoop:
                 t_emit = clock.monotonic_ns()
                 work = t_emit - work_start
                 if emitted:
-                    self.stats.samples += 1
+                    stats.samples += 1
                 if self._barrier is not None and (emitted or due) and self.flight_running():
                     fut = self._barrier
                     handle = loop.call_later(timeout_s, _time_out, fut)
                     try:
                         t_arrival = await fut
-                        self.stats.latencies_ns.append(t_arrival - t_emit)
-                        devices.note_latency(t_ns, t_emit, t_arrival)
+                        stats.latencies_ns.append(t_arrival - t_emit)
+                        devices.note_latency(LatencySample(t_ns, t_emit, t_arrival))
                     except TimeoutError:
-                        self.stats.barrier_misses += 1
-                        devices.note_latency(t_ns, t_emit, None)
+                        stats.barrier_misses += 1
+                        devices.note_latency(LatencySample(t_ns, t_emit, None))
                     finally:
                         handle.cancel()
                     self._barrier = None
                 elif emitted:
                     if self._rt_emit is not None:  # the previous sample got no command
-                        devices.note_latency(self._rt_emit[0], self._rt_emit[1], None)
+                        devices.note_latency(LatencySample(self._rt_emit[0], self._rt_emit[1], None))
                     self._rt_emit = (t_ns, t_emit)
                 after = clock.monotonic_ns()
                 devices.finish_tick(t_ns)
                 if self.after_tick is not None:
                     self.after_tick(k, t_ns)
-                self.stats.tick_cost_ns.append(work + clock.monotonic_ns() - after)
-                self.stats.ticks += 1
+                stats.tick_cost_ns.append(work + clock.monotonic_ns() - after)
+                stats.ticks += 1
             return EndReason.COMPLETED
         finally:
-            self.stats.wall_end_ns = clock.monotonic_ns()
             if pacer is not None:
                 pacer.close()
 

@@ -40,9 +40,13 @@ class WireFilter(Protocol):
 
 @dataclass(frozen=True)
 class LatencySample:
-    t_ns: int
-    t_emit_host_ns: int
-    t_arrival_host_ns: int | None
+    """How one IMU sample was answered. Host ns from the bench's monotonic clock; sim ns."""
+
+    t_ns: int  #: the sample's sim time
+    t_emit_host_ns: int  #: when the bench wrote it
+    t_arrival_host_ns: int | None  #: when its ESC command arrived (None: no command, a miss)
+    t_arrival_ns: int | None = None  #: virtual time: the command's sim time
+    fc_cpu_ns: int | None = None  #: virtual time: the flight code's CPU time for it (host ns)
 
 
 def spawn_rngs(seed: int) -> dict[str, np.random.Generator]:
@@ -109,7 +113,8 @@ class DeviceSet:
         self.sensors = self.plant.sensors()
         #: boot ends when the flight code itself has put the XSENS into measurement
         self.imu_started_by_host = False
-        self.on_esc_command: Callable[[int], None] = lambda t_host_ns: None
+        #: called with (host ns, sim ns) for every Maestro command that sets targets
+        self.on_esc_command: Callable[[int, int], None] = lambda t_host_ns, t_ns: None
         self.event_sinks: list[EventSink] = []
         #: port -> wire-fault filters (hil/faults.py): ``tx(data, t_ns) -> bytes`` on the way
         #: to the client, ``rx(data, t_ns) -> bytes`` on the way to the device,
@@ -158,7 +163,7 @@ class DeviceSet:
             if events:
                 self._dispatch(name, events)
                 if is_esc and any(type(e).__name__ == "TargetsSet" for e in events):
-                    self.on_esc_command(clock.monotonic_ns())
+                    self.on_esc_command(clock.monotonic_ns(), t_ns)
 
         return on_data
 
@@ -316,8 +321,8 @@ class DeviceSet:
         due = bool(self.imu.measuring and period and t_ns % period == 0)
         return emitted, due
 
-    def note_latency(self, t_ns: int, t_emit: int, t_arrival: int | None) -> None:
-        self.latency.append(LatencySample(t_ns, t_emit, t_arrival))
+    def note_latency(self, sample: LatencySample) -> None:
+        self.latency.append(sample)
 
     def finish_tick(self, t_ns: int) -> None:
         """Everything after the barrier: the radio link, slow devices, their outputs."""

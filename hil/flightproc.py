@@ -40,10 +40,18 @@ def expand_command(template: Sequence[str], *, config: Path) -> list[str]:
 class FlightProcess:
     """The flight code subprocess."""
 
-    def __init__(self, argv: list[str], *, cwd: Path, on_line: LineCallback, keep_lines: int = 20) -> None:
+    def __init__(self, argv: list[str], *, cwd: Path, on_line: LineCallback, keep_lines: int = 20,
+                 env: dict[str, str] | None = None) -> None:
         self.argv = argv
         self.cwd = cwd
         self.on_line = on_line
+        #: added to the bench's environment at every start (the clock shim's, for one)
+        self.env = dict(env or {})
+        #: called with the pid after every start, and with the pid when that process is gone
+        self.on_start: list[Callable[[int], None]] = []
+        self.on_exit: list[Callable[[int], None]] = []
+        #: a restart's new process is due (sim time) but not started yet
+        self.starting = False
         self.last_stderr: collections.deque[str] = collections.deque(maxlen=keep_lines)
         self.proc: asyncio.subprocess.Process | None = None
         self._readers: list[asyncio.Task[None]] = []
@@ -54,6 +62,7 @@ class FlightProcess:
     async def start(self, extra_env: dict[str, str] | None = None) -> None:
         env = dict(os.environ)
         env.setdefault("PYTHONUNBUFFERED", "1")
+        env.update(self.env)
         if extra_env:
             env.update(extra_env)
         self.proc = await asyncio.create_subprocess_exec(
@@ -73,6 +82,8 @@ class FlightProcess:
         ]
         # keep a reference: the loop holds tasks weakly, and this one sets ``exited``
         self._watcher = asyncio.create_task(self._watch())
+        for hook in self.on_start:
+            hook(self.proc.pid)
 
     async def _pump(self, stream: asyncio.StreamReader, name: str) -> None:
         while True:
@@ -86,8 +97,12 @@ class FlightProcess:
 
     async def _watch(self) -> None:
         assert self.proc is not None
-        await self.proc.wait()
+        proc = self.proc
+        await proc.wait()
+        for hook in self.on_exit:
+            hook(proc.pid)
         await asyncio.gather(*self._readers, return_exceptions=True)
+        # a restart swaps in a private event before the kill: set whichever is current
         self.exited.set()
 
     @property
@@ -108,6 +123,11 @@ class FlightProcess:
             assert self.proc is not None
             self.killed_by_bench = True
             self.proc.kill()
+
+    def begin_start(self) -> None:
+        """A restart's downtime is over: its new process counts as running from now (the
+        bench waits for it instead of ticking on), though it is started a moment later."""
+        self.starting = True
 
     async def restart(self, extra_env: dict[str, str] | None = None, *, resume: asyncio.Event | None = None) -> None:
         """Kill the flight code (if it runs) and start the same argv again.
@@ -133,6 +153,7 @@ class FlightProcess:
                 await resume.wait()
         except asyncio.CancelledError:
             self.exited = real
+            self.starting = False
             real.set()
             raise
         self.exited = real
@@ -142,6 +163,8 @@ class FlightProcess:
         except BaseException:
             real.set()  # it could not be started again: that is an exit
             raise
+        finally:
+            self.starting = False
 
     async def stop(self, timeout_s: float = 3.0) -> int | None:
         """SIGTERM, then SIGKILL after ``timeout_s``; returns the exit status."""

@@ -20,7 +20,9 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
+
+from pydantic import Field
 
 from hil.config import (
     ConfigError,
@@ -73,9 +75,16 @@ class FlightSection:
     #: the flight code's own config file (its format), relative to the rig file; the bench
     #: fills its [ports] table with the run's symlinks
     config: str = "flightcode-paper-quad.toml"
+    #: sim seconds (wall seconds where virtual time falls back to the host clock)
     boot_timeout_s: float = 20.0
+    #: lockstep on the host clock only (the fallback): wall seconds to wait for a sample's command
     barrier_timeout_s: float = 0.5
     required_devices: tuple[str, ...] = ("imu", "adc")
+    #: the target processor's CPU time per host CPU second: compute figures in lockstep are the
+    #: flight code's CPU time on this host times this (docs/time.md: how to calibrate it)
+    cpu_scale: Annotated[float, Field(gt=0.0)] = 1.0
+    #: lockstep: run the flight code on sim time through the clock shim (docs/time.md)
+    virtual_time: bool = True
 
 
 @dataclass(frozen=True)

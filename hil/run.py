@@ -27,7 +27,7 @@ import numpy as np
 import tomli_w
 
 from hil import __version__, clock
-from hil.bench import BootError, EndReason, Mode, TickLoop
+from hil.bench import BootError, Clock, EndReason, Mode, TickLoop
 from hil.config import ConfigError, load_toml
 from hil.criteria import CriterionResult, evaluate
 from hil.devices import DeviceSet
@@ -40,6 +40,8 @@ from hil.scenario_runner import ScenarioRunner
 from hil.stress import CpuHog
 from hil.trace import Trace
 from hil.transport.pty import PtyPort
+from hil.vtime.preload import Fallback
+from hil.vtime.session import ShimUsage, VirtualTime, describe_stall
 
 PORTS = ("imu", "adc", "rc", "esc", "telemetry", "ground")
 SWITCH_INTERVAL_S = 0.0005
@@ -62,6 +64,12 @@ class RunResult:
     dropped: int = 0
     seed: int = 0
     sim_s: float = 0.0
+    #: the clock the flight code ran on; why it was not virtual in a lockstep run
+    clock: Clock = Clock.WALL
+    clock_note: str = ""
+    shim: ShimUsage | None = None
+    #: things the user must know about this run (fallbacks, uncovered calls, stalls)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
@@ -97,7 +105,20 @@ def write_flight_config(rig: Rig, scenario: Scenario, ports: dict[str, PtyPort],
     return path
 
 
-def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None) -> dict[str, float]:
+def _percentiles(prefix: str, values_us: np.ndarray) -> dict[str, float]:
+    if values_us.size == 0:
+        return {}
+    return {
+        f"{prefix}_p50_us": float(np.percentile(values_us, 50)),
+        f"{prefix}_p99_us": float(np.percentile(values_us, 99)),
+        f"{prefix}_max_us": float(values_us.max()),
+    }
+
+
+def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None, cpu_scale: float = 1.0) -> dict[str, float]:
+    """The run's timing figures. ``latency_*``, ``period_*`` and ``fc_compute_*`` are on the
+    flight code's clock: sim time with virtual time (deterministic, what budgets judge), the
+    host clock otherwise. ``host_latency_*`` and ``bench_cost_*`` are host figures always."""
     st = loop.stats
     wall_s = max((st.wall_end_ns - st.wall_start_ns) / 1e9, 1e-9)
     sim_s = st.ticks * tick_ns / 1e9
@@ -110,39 +131,33 @@ def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None) ->
         "late_ticks": float(st.late_ticks),
         "esc_commands": float(st.esc_commands),
     }
-    if st.latencies_ns:
-        lat = np.asarray(st.latencies_ns) / 1e3
-        out |= {
-            "latency_p50_us": float(np.percentile(lat, 50)),
-            "latency_p99_us": float(np.percentile(lat, 99)),
-            "latency_max_us": float(lat.max()),
-        }
+    samples = loop.devices.latency
+    host = np.asarray([s.t_arrival_host_ns - s.t_emit_host_ns for s in samples if s.t_arrival_host_ns is not None])
+    virtual = st.clock is Clock.VIRTUAL
+    out |= _percentiles("latency", np.asarray(st.latencies_ns) / 1e3)
+    out |= _percentiles("host_latency", host / 1e3)
     if st.tick_cost_ns:
         cost = np.asarray(st.tick_cost_ns) / 1e3
         out |= {"bench_cost_p50_us": float(np.percentile(cost, 50)), "bench_cost_p99_us": float(np.percentile(cost, 99))}
-    arrivals = np.asarray([s.t_arrival_host_ns for s in loop.devices.latency if s.t_arrival_host_ns is not None])
+    if virtual:
+        arrivals = np.asarray([s.t_arrival_ns for s in samples if s.t_arrival_ns is not None])
+    else:
+        arrivals = np.asarray([s.t_arrival_host_ns for s in samples if s.t_arrival_host_ns is not None])
     if arrivals.size > 2:
         period = np.diff(arrivals) / 1e3
         jitter = np.abs(period - tick_ns / 1e3)
-        out |= {
-            "period_p50_us": float(np.percentile(period, 50)),
-            "period_jitter_p99_us": float(np.percentile(jitter, 99)),
-        }
-    if trace is not None:
+        out |= {"period_p50_us": float(np.percentile(period, 50)), "period_jitter_p99_us": float(np.percentile(jitter, 99))}
+    if virtual:
+        out |= _percentiles("fc_compute", np.asarray(st.fc_cpu_ns) * cpu_scale / 1e3)
+        out["boot_sim_s"] = st.boot_sim_ns / 1e9
+    elif trace is not None:
         try:
             _, compute = trace.signal("tm.compute_last_us")
         except KeyError:
             compute = np.zeros(0)
-        compute = compute[np.isfinite(compute)]
-        if compute.size:
-            out |= {"fc_compute_p50_us": float(np.percentile(compute, 50)), "fc_compute_p99_us": float(np.percentile(compute, 99))}
+        out |= _percentiles("fc_compute", compute[np.isfinite(compute)])
     if st.lateness_ns:
-        late = np.asarray(st.lateness_ns) / 1e3
-        out |= {
-            "lateness_p50_us": float(np.percentile(late, 50)),
-            "lateness_p99_us": float(np.percentile(late, 99)),
-            "lateness_max_us": float(late.max()),
-        }
+        out |= _percentiles("lateness", np.asarray(st.lateness_ns) / 1e3)
     return out
 
 
@@ -170,8 +185,12 @@ async def run_flight_async(
     scenario_source: Path | None = None,
     stress_cpu: int = 0,
     stress_adc_delay_us: float = 0.0,
+    virtual_time: bool | None = None,
 ) -> RunResult:
-    """Run one flight (see module docstring). Never raises for run-time failures."""
+    """Run one flight (see module docstring). Never raises for run-time failures.
+
+    ``virtual_time``: lockstep on sim time through the clock shim (None: the rig's
+    ``[flight] virtual_time``, on by default); False runs lockstep on the host clock."""
     # The recorder's writer thread must not hold the GIL for the default 5 ms while the
     # tick waits on a pty (hil/record measurements: wake-ups 2.2 ms late otherwise).
     sys.setswitchinterval(SWITCH_INTERVAL_S)
@@ -213,11 +232,34 @@ async def run_flight_async(
     runner.log_event = logger.event
 
     flight_config = write_flight_config(rig, scenario, ports, run_dir)
+    argv = expand_command(rig.flight.command, config=flight_config)
+    notes: list[str] = []
+
+    def note(text: str) -> None:
+        notes.append(text)
+        logger.event(max(devices.t_ns, 0), "run", "note", {"text": text})
+
+    vt: VirtualTime | None = None
+    clock_note = ""
+    if mode is Mode.LOCKSTEP:
+        wanted = rig.flight.virtual_time if virtual_time is None else virtual_time
+        opened: VirtualTime | Fallback = (
+            VirtualTime.open(run_dir, ports, argv, on_stall=lambda st: note(describe_stall(st)))
+            if wanted else Fallback("virtual time switched off (rig [flight] virtual_time or --wall-clock)")
+        )
+        if isinstance(opened, Fallback):
+            clock_note = opened.reason
+            note(f"lockstep on the host clock (load changes the flight): {clock_note}")
+        else:
+            vt = opened
     flight = FlightProcess(
-        expand_command(rig.flight.command, config=flight_config),
+        argv,
         cwd=Path.cwd(),
         on_line=lambda stream, line: logger.flight_line(stream, line),
+        env=vt.env if vt is not None else None,
     )
+    if vt is not None:
+        vt.bind(flight)
     loop = TickLoop(
         devices,
         mode=mode,
@@ -228,7 +270,10 @@ async def run_flight_async(
         before_tick=runner.before_tick,
         after_tick=logger.after_tick,
         flight_exited=flight.exited,
-        flight_running=lambda: flight.running,
+        # on virtual time a restart's new process is waited for from the tick its downtime ends
+        flight_running=(lambda: flight.running or flight.starting) if vt is not None else (lambda: flight.running),
+        vclock=vt.clock if vt is not None else None,
+        on_fallback=lambda why: note(f"lockstep on the host clock (load changes the flight): {why}"),
     )
     runner.attach_flight(flight)
     if on_ready is not None:
@@ -247,7 +292,8 @@ async def run_flight_async(
         except BootError as exc:
             end, message = EndReason.BOOT_FAILED, str(exc)
         else:
-            logger.event(0, "run", "boot complete", {"boot_wall_s": 0})
+            logger.event(0, "run", "boot complete", {"boot_sim_s": loop.stats.boot_sim_ns / 1e9,
+                                                     "clock": loop.stats.clock.value})
             end = await loop.run()
             if end is EndReason.FLIGHT_EXITED:
                 message = f"the flight code exited with status {flight.returncode} at t = {loop.t_ns / 1e9:.3f} s"
@@ -260,12 +306,23 @@ async def run_flight_async(
         hog.__exit__(None, None, None)
         runner.finish(max(loop.t_ns, 0))
         await runner.aclose()
+        if vt is not None:
+            vt.free_run()  # its shutdown and last words at the host's pace
         returncode = await flight.stop()
         with contextlib.suppress(Exception):
             await asyncio.sleep(0)  # let the last stderr lines reach the logger
         for port in ports.values():
             port.close()
-        timing = _timing_summary(loop, rig.tick_ns, trace)
+        clock_used = loop.stats.clock
+        shim: ShimUsage | None = None
+        if vt is not None:
+            if clock_used is Clock.VIRTUAL:
+                shim = vt.usage()
+                for warning in shim.warnings:
+                    note(warning)
+            vt.close()
+        clock_note = loop.fallback_reason or clock_note
+        timing = _timing_summary(loop, rig.tick_ns, trace, rig.flight.cpu_scale)
         criteria = evaluate(scenario.criteria, trace) if end is EndReason.COMPLETED else []
         timing_criteria = runner.timing_criteria(timing, logger)
         criteria += timing_criteria
@@ -279,6 +336,11 @@ async def run_flight_async(
                 "message": message,
                 "flight_returncode": str(returncode),
                 "timing": json.dumps({k: (v if math.isfinite(v) else None) for k, v in timing.items()}),
+                "clock": clock_used.value,
+                "clock_note": clock_note,
+                "cpu_scale": f"{rig.flight.cpu_scale:g}",
+                "shim_calls": json.dumps(shim.calls if shim else {}),
+                "notes": json.dumps(notes),
             }
             stats = recorder.close(final)
         if not keep_run_dir:
@@ -297,6 +359,10 @@ async def run_flight_async(
         dropped=stats.dropped if stats else 0,
         seed=seed,
         sim_s=loop.stats.ticks * rig.tick_ns / 1e9,
+        clock=clock_used,
+        clock_note=clock_note,
+        shim=shim,
+        notes=notes,
     )
 
 

@@ -224,6 +224,11 @@ class RunLogger:
             if len(d.latency) > self._lat_i:
                 for lat in d.latency[self._lat_i :]:
                     arrival = lat.t_arrival_host_ns
+                    host_us = (arrival - lat.t_emit_host_ns) / 1e3 if arrival is not None else -1.0
+                    if lat.t_arrival_ns is not None:
+                        latency_us = (lat.t_arrival_ns - lat.t_ns) / 1e3
+                    else:
+                        latency_us = host_us if lat.fc_cpu_ns is None else -1.0
                     rec.log(
                         "/hil/timing/tick",
                         lat.t_ns,
@@ -232,7 +237,9 @@ class RunLogger:
                             "t_ns": lat.t_ns,
                             "imu_emit_host_ns": lat.t_emit_host_ns,
                             "esc_arrival_host_ns": arrival if arrival is not None else -1,
-                            "latency_us": (arrival - lat.t_emit_host_ns) / 1e3 if arrival is not None else -1.0,
+                            "latency_us": latency_us,
+                            "host_latency_us": host_us,
+                            "fc_cpu_us": lat.fc_cpu_ns / 1e3 if lat.fc_cpu_ns is not None else -1.0,
                             "miss": arrival is None,
                         },
                         t_host,

@@ -30,6 +30,14 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
     )
     if result.message:
         console.print(f"  {result.message}")
+    clock_line = {
+        "virtual": "clock: virtual (the flight code ran on sim time; load does not change the flight)",
+        "wall": "clock: host (lockstep fallback: load can change the flight)",
+        "realtime": "clock: host, realtime",
+    }[result.clock.value]
+    console.print(f"  {clock_line}" + (f": {result.clock_note}" if result.clock_note else ""), highlight=False)
+    for note in result.notes:
+        console.print(f"  [yellow]note:[/] {note}", highlight=False)
     if result.criteria:
         table = Table(title="criteria", show_lines=False)
         for col in ("check", "signal", "metric", "value", "bound", "result"):
@@ -46,9 +54,9 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
     timing.add_column("value")
     for key in (
         "rtf", "ticks", "barrier_misses", "latency_p50_us", "latency_p99_us", "latency_max_us",
-        "fc_compute_p50_us", "fc_compute_p99_us", "period_p50_us", "period_jitter_p99_us",
-        "bench_cost_p50_us", "bench_cost_p99_us", "lateness_p50_us", "lateness_p99_us", "lateness_max_us",
-        "late_ticks",
+        "fc_compute_p50_us", "fc_compute_p99_us", "fc_compute_max_us", "period_p50_us", "period_jitter_p99_us",
+        "host_latency_p50_us", "host_latency_p99_us", "bench_cost_p50_us", "bench_cost_p99_us",
+        "lateness_p50_us", "lateness_p99_us", "lateness_max_us", "late_ticks", "boot_sim_s",
     ):
         if key in t:
             timing.add_row(key, _fmt(t[key]))

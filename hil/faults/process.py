@@ -70,6 +70,8 @@ class ProcessRestart(Fault[NoParams]):
 
     def revert(self, t_ns: int) -> dict[str, Any]:
         self.t_restart_ns = t_ns
+        assert self.env.flight is not None
+        self.env.flight.begin_start()
         self.resume.set()
         return {"restart_at_s": t_ns / 1e9}
 

@@ -115,6 +115,9 @@ class Port:
     def close(self) -> None:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def flush(self) -> None:
+        """Make everything written so far readable by the client now (no-op if immediate)."""
+
     async def start(self) -> None:
         """Register with the running event loop."""
 

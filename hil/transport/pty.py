@@ -12,8 +12,8 @@ symlink in the run directory. Design points (measured in research/ecosystem.md Â
 * Writes never block the loop: the master is non-blocking; what the kernel will not take
   waits in a bounded buffer drained by ``add_writer``; beyond the bound bytes are dropped
   and counted (like a UART overrun), never hidden.
-* ``write_confirmed`` waits until the client can actually read the bytes (TIOCINQ on the
-  bench's slave fd), because pty delivery goes through a kernel work queue.
+* ``write_confirmed`` makes sure the client can actually read the bytes: pty delivery goes
+  through a kernel work item, which a zero-timeout poll of the tty runs at once (``flush``).
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import asyncio
 import errno
 import fcntl
 import os
+import select
 import struct
 import termios
 import tty
@@ -36,7 +37,6 @@ TIOCPKT_FLUSHREAD = 1
 TIOCPKT_IOCTL = 64
 TCGETS2 = 0x802C542A  # x86_64/aarch64
 BOTHER = 0o010000
-SPIN_NS = 300_000  #: write_confirmed spins this long before yielding to the event loop
 
 _BAUD_BY_CONST = {
     getattr(termios, f"B{rate}"): rate
@@ -82,6 +82,9 @@ class PtyPort(Port):
         os.set_blocking(self._master, False)
         fcntl.ioctl(self._master, termios.TIOCPKT, struct.pack("i", 1))
         self.tty_name = os.ttyname(self._slave)
+        st_rdev = os.fstat(self._slave).st_rdev
+        #: the slave's device number as the clock shim publishes a wait on it (hil/vtime)
+        self.rdev_key = (os.major(st_rdev) << 20) | os.minor(st_rdev)
         self._link = Path(dev_dir) / name
         if self._link.is_symlink() or self._link.exists():
             self._link.unlink()
@@ -96,29 +99,55 @@ class PtyPort(Port):
     def path(self) -> str:
         return str(self._link)
 
+    @property
+    def master_fd(self) -> int:
+        return self._master
+
+    @property
+    def slave_fd(self) -> int:
+        """The bench's own descriptor of the slave (never read: readiness checks only)."""
+        return self._slave
+
+    @property
+    def writes(self) -> int:
+        return self.stats.writes
+
     async def start(self) -> None:
         self._loop = asyncio.get_running_loop()
         self._loop.add_reader(self._master, self._on_readable)
 
     # -- client -> bench -------------------------------------------------------------------
     def _on_readable(self) -> None:
+        self._read_packet()
+
+    def _read_packet(self) -> bool:
+        """Read and dispatch one packet; False if there was nothing to read."""
         try:
             pkt = os.read(self._master, 65537)
         except BlockingIOError:
-            return
+            return False
         except OSError as exc:  # EIO cannot happen while we hold the slave; be safe anyway
             if exc.errno == errno.EIO:
-                return
+                return False
             raise
         if not pkt:
-            return
+            return False
         status = pkt[0]
         if status == TIOCPKT_DATA:
             if len(pkt) > 1:
                 self._deliver_rx(pkt[1:])
-            return
+            return True
         if status & (TIOCPKT_FLUSHREAD | TIOCPKT_IOCTL):
             self._line_changed(_read_line_settings(self._master, opened=bool(status & TIOCPKT_FLUSHREAD)))
+        return True
+
+    def read_available(self) -> bool:
+        """Take in everything the client has written so far (a read that finds nothing runs
+        the pty's pending flush work first, so nothing written before this call is left)."""
+        got = False
+        while self._read_packet():
+            got = True
+        return got
 
     # -- bench -> client -------------------------------------------------------------------
     def write(self, data: bytes) -> int:
@@ -180,32 +209,35 @@ class PtyPort(Port):
         self.write(data)
         return want
 
+    def flush(self) -> None:
+        """Run the pty's pending delivery work now: afterwards everything written so far is
+        readable by the client (a zero-timeout poll of a tty does the flush first)."""
+        if not self._closed:
+            select.select([self._slave], [], [], 0)
+
     async def confirm(self, want: int, timeout_s: float = 0.05) -> bool:
         """Wait until the client can read ``want`` bytes (from :meth:`write_tracked`).
 
         Correct only while the client is not reading this port concurrently (the lockstep
-        tick guarantees that: the flight code is blocked on the IMU). The flush usually lands
-        within tens of microseconds, so the first wait is a short synchronous spin (an
-        event-loop round trip costs more than that); after ``SPIN_NS`` it yields to the
-        loop. On timeout the delivery is counted in ``stats.delivery_timeouts`` and False is
-        returned.
+        tick guarantees that: the flight code is blocked on the IMU). A flush makes written
+        bytes readable at once; only bytes still waiting in our own buffer (the client let
+        the kernel's fill) need time, and then the wait yields to the event loop. On timeout
+        the delivery is counted in ``stats.delivery_timeouts`` and False is returned.
         """
         from hil import clock  # local: keep the import surface of this module small
 
-        if self._pending_blocks(want) or self.client_inq() >= want:
+        if self._pending_blocks(want):
             return True
-        start = clock.monotonic_ns()
-        spin_until = start + SPIN_NS
-        deadline = start + int(timeout_s * 1e9)
+        self.flush()
+        if self.client_inq() >= want:
+            return True
+        deadline = clock.monotonic_ns() + int(timeout_s * 1e9)
         while self.client_inq() < want:
-            now = clock.monotonic_ns()
-            if now > deadline:
+            if clock.monotonic_ns() > deadline:
                 self.stats.delivery_timeouts += 1
                 return False
-            if now > spin_until:
-                await asyncio.sleep(0)
-            else:
-                os.sched_yield()
+            await asyncio.sleep(0)
+            self.flush()
         return True
 
     def _pending_blocks(self, want: int) -> bool:

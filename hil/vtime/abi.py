@@ -1,0 +1,127 @@
+"""Python mirror of the control block's layout (``hvt_abi.h``).
+
+The shim exports ``hvt_abi_layout`` (sizes, offsets, constants); tests/unit/vtime compares
+it with these ctypes structures, so a change on one side that the other misses fails CI.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import enum
+
+MAGIC = 0x31545648  #: "HVT1"
+VERSION = 1
+MAX_THREADS = 16
+MAX_KEYS = 8
+N_CALLS = 32
+NO_DEADLINE = 2**63 - 1
+KEYS_UNKNOWN = 0xFFFFFFFF
+
+
+class Mode(enum.IntEnum):
+    OFF = 0
+    VIRTUAL = 1
+    FREE_RUN = 2
+
+
+class State(enum.IntEnum):
+    FREE = 0
+    RUNNING = 1
+    BLOCKED = 2
+
+
+class Call(enum.IntEnum):
+    """Index into ``Header.calls``: which interposed calls the flight code made."""
+
+    CLOCK_GETTIME = 0
+    GETTIMEOFDAY = 1
+    TIME = 2
+    TIMESPEC_GET = 3
+    NANOSLEEP = 4
+    CLOCK_NANOSLEEP = 5
+    USLEEP = 6
+    SLEEP = 7
+    SELECT = 8
+    PSELECT = 9
+    POLL = 10
+    PPOLL = 11
+    EPOLL_WAIT = 12
+    EPOLL_PWAIT = 13
+    EPOLL_PWAIT2 = 14
+    CPU_CLOCK = 15  #: CPU-time clocks, passed through by design
+    SPIN_YIELD = 16  #: busy-waits on the clock turned into sim-time quanta
+    CLOCK_OTHER = 20  #: from here on: uncovered, these run on the host clock
+    TIMERFD = 21
+    TIMER_CREATE = 22
+    SETITIMER = 23
+    ALARM = 24
+    COND_TIMEDWAIT = 25
+    SEM_TIMEDWAIT = 26
+    MUTEX_TIMEDLOCK = 27
+    NO_SLOT = 28
+
+
+FIRST_UNCOVERED = Call.CLOCK_OTHER
+
+
+class Header(ctypes.Structure):
+    _fields_ = [
+        ("magic", ctypes.c_uint32),
+        ("version", ctypes.c_uint32),
+        ("max_threads", ctypes.c_uint32),
+        ("slot_size", ctypes.c_uint32),
+        ("time_seq", ctypes.c_uint32),
+        ("mode", ctypes.c_uint32),
+        ("now_ns", ctypes.c_int64),
+        ("mono_base_ns", ctypes.c_int64),
+        ("real_base_ns", ctypes.c_int64),
+        ("tai_offset_ns", ctypes.c_int64),
+        ("free_run_host_ns", ctypes.c_int64),
+        ("spin_quantum_ns", ctypes.c_int64),
+        ("spin_limit", ctypes.c_uint32),
+        ("epoch", ctypes.c_uint32),
+        ("bench_pid", ctypes.c_int32),
+        ("attached", ctypes.c_uint32),
+        ("calls", ctypes.c_uint64 * N_CALLS),
+    ]
+
+
+class Slot(ctypes.Structure):
+    _fields_ = [
+        ("tid", ctypes.c_int32),
+        ("pid", ctypes.c_int32),
+        ("state", ctypes.c_uint32),
+        ("seq", ctypes.c_uint32),
+        ("deadline_ns", ctypes.c_int64),
+        ("cpu_ns", ctypes.c_int64),
+        ("blocks", ctypes.c_uint64),
+        ("seen_epoch", ctypes.c_uint32),
+        ("nkeys", ctypes.c_uint32),
+        ("key_rdev", ctypes.c_uint32 * MAX_KEYS),
+        ("key_events", ctypes.c_uint16 * MAX_KEYS),
+        ("spin_yields", ctypes.c_uint32),
+        ("clock_reads", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint64 * 3),
+    ]
+
+
+BLOCK_SIZE = ctypes.sizeof(Header) + MAX_THREADS * ctypes.sizeof(Slot)
+
+
+def rdev_key(st_rdev: int) -> int:
+    """A character device number as the shim publishes it: ``(major << 20) | minor``."""
+    import os
+
+    return (os.major(st_rdev) << 20) | os.minor(st_rdev)
+
+
+def expected_layout() -> tuple[int, ...]:
+    """The values the shim's ``hvt_abi_layout`` must hold, in its order."""
+    return (
+        MAGIC, VERSION, MAX_THREADS, MAX_KEYS, N_CALLS,
+        ctypes.sizeof(Header), ctypes.sizeof(Slot),
+        Header.time_seq.offset, Header.now_ns.offset, Header.free_run_host_ns.offset, Header.epoch.offset,
+        Header.calls.offset,
+        Slot.seq.offset, Slot.deadline_ns.offset, Slot.cpu_ns.offset, Slot.nkeys.offset,
+        Slot.key_rdev.offset, Slot.key_events.offset, Slot.clock_reads.offset,
+    )  # fmt: skip

@@ -1,0 +1,208 @@
+"""The bench's side of the control block: the shared file, its FIFOs, the clock it publishes.
+
+Files, all in the run's 0700 directory:
+
+* ``vtime.ctl`` (0600): header + one slot per flight-code thread (``hvt_abi.h``), mapped
+  MAP_SHARED by the bench and by the shim in the flight-code process;
+* ``vtime.ctl.n``: FIFO, the shim writes one byte whenever a thread blocks (the bench
+  reads it on its event loop);
+* ``vtime.ctl.wNN``: one FIFO per slot; the bench writes one byte to end that thread's
+  wait (its deadline came, or its wait set must be re-checked). The bench holds every FIFO
+  open read-write, so a thread sees a hang-up only when the bench is gone.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import errno
+import mmap
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from hil import clock
+from hil.vtime import abi
+
+#: CLOCK_MONOTONIC of the flight code at its start: far from any real uptime, so a clock
+#: mix-up (a value from the host clock compared with a virtual one) is visible at once.
+MONO_BASE_NS = 1_000_000 * 1_000_000_000
+#: CLOCK_REALTIME of the flight code at its start: 2013-01-01T00:00:00Z, fixed so that runs
+#: are reproducible (the paper's era; the MCAP's own log_time is the real run start).
+REAL_BASE_NS = 1_356_998_400 * 1_000_000_000
+#: TAI - UTC since 2017-01-01
+TAI_OFFSET_NS = 37 * 1_000_000_000
+
+
+@dataclass(frozen=True)
+class ThreadView:
+    """One flight-code thread as the bench sees it (a snapshot of its slot)."""
+
+    index: int
+    tid: int
+    pid: int
+    seq: int
+    blocked: bool
+    deadline_ns: int | None  #: flight-code clock, None for no deadline
+    cpu_ns: int
+    seen_epoch: int
+    keys: tuple[tuple[int, int], ...] | None  #: (rdev key, poll events); None: not known (epoll)
+    spin_yields: int
+
+
+class ControlBlock:
+    """Create, map and drive the control block of one run."""
+
+    def __init__(self, run_dir: Path, *, spin_limit: int = 100_000, spin_quantum_ns: int = 100_000) -> None:
+        self.path = Path(run_dir) / "vtime.ctl"
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o600)
+        try:
+            os.ftruncate(fd, abi.BLOCK_SIZE)
+            self._map = mmap.mmap(fd, abi.BLOCK_SIZE, mmap.MAP_SHARED, mmap.PROT_READ | mmap.PROT_WRITE)
+        finally:
+            os.close(fd)
+        self.header = abi.Header.from_buffer(self._map)
+        self.slots = (abi.Slot * abi.MAX_THREADS).from_buffer(self._map, ctypes.sizeof(abi.Header))
+        h = self.header
+        h.version, h.max_threads, h.slot_size = abi.VERSION, abi.MAX_THREADS, ctypes.sizeof(abi.Slot)
+        h.mono_base_ns, h.real_base_ns, h.tai_offset_ns = MONO_BASE_NS, REAL_BASE_NS, TAI_OFFSET_NS
+        h.spin_limit, h.spin_quantum_ns = spin_limit, spin_quantum_ns
+        h.bench_pid = os.getpid()
+        h.mode = abi.Mode.VIRTUAL
+        h.magic = abi.MAGIC  # last: a shim maps only a complete block
+        self.notify_fd = self._fifo(f"{self.path}.n")
+        self.wake_fds = [self._fifo(f"{self.path}.w{i:02d}") for i in range(abi.MAX_THREADS)]
+        self._closed = False
+
+    @staticmethod
+    def _fifo(path: str) -> int:
+        os.mkfifo(path, 0o600)
+        # read-write: never blocks on open, never reports EOF to us, and the shim's end hangs
+        # up only when this descriptor is closed (the bench is gone)
+        return os.open(path, os.O_RDWR | os.O_NONBLOCK | os.O_CLOEXEC)
+
+    def env(self, library: Path, inherited: dict[str, str] | None = None) -> dict[str, str]:
+        """Environment entries that make a process attach: LD_PRELOAD (kept in front of any
+        preload the user has) and the block's path."""
+        inherited = dict(os.environ) if inherited is None else inherited
+        preload = " ".join(p for p in (str(library), inherited.get("LD_PRELOAD", "")) if p)
+        return {"LD_PRELOAD": preload, "HIL_VT_CTL": str(self.path)}
+
+    # -- the clock ----------------------------------------------------------------------------
+    @property
+    def now_ns(self) -> int:
+        return self.header.now_ns
+
+    def set_now(self, fc_ns: int) -> None:
+        """Publish the flight code's clock (seqlock: readers retry while time_seq is odd)."""
+        h = self.header
+        h.time_seq += 1
+        h.now_ns = fc_ns
+        h.time_seq += 1
+
+    def bump_epoch(self) -> int:
+        self.header.epoch = (self.header.epoch + 1) & 0xFFFFFFFF
+        return self.header.epoch
+
+    @property
+    def epoch(self) -> int:
+        return self.header.epoch
+
+    # -- threads ------------------------------------------------------------------------------
+    def threads(self) -> list[ThreadView]:
+        """Snapshot of every claimed slot."""
+        out: list[ThreadView] = []
+        for i, s in enumerate(self.slots):
+            if not s.tid:
+                continue
+            seq = s.seq
+            blocked = bool(seq & 1) and s.state == abi.State.BLOCKED
+            keys: tuple[tuple[int, int], ...] | None = None
+            if s.nkeys != abi.KEYS_UNKNOWN:
+                n = min(s.nkeys, abi.MAX_KEYS)
+                keys = tuple((s.key_rdev[k], s.key_events[k]) for k in range(n))
+            deadline = s.deadline_ns
+            out.append(
+                ThreadView(i, s.tid, s.pid, seq, blocked, None if deadline == abi.NO_DEADLINE else deadline,
+                           s.cpu_ns, s.seen_epoch, keys, s.spin_yields)
+            )
+        return out
+
+    def seq(self, index: int) -> int:
+        return self.slots[index].seq
+
+    def attached_pids(self) -> set[int]:
+        return {s.pid for s in self.slots if s.tid}
+
+    def clear_process(self, pid: int) -> None:
+        """Free the slots of a process that is gone (killed threads never release theirs)."""
+        for s in self.slots:
+            if s.tid and s.pid == pid:
+                s.state = abi.State.FREE
+                s.tid = 0
+
+    def wake(self, index: int) -> None:
+        """End thread ``index``'s wait (it re-checks its fds, then its deadline)."""
+        try:
+            os.write(self.wake_fds[index], b"w")
+        except BlockingIOError:
+            pass  # the FIFO is full of wake-ups already
+
+    def drain_notifications(self) -> int:
+        n = 0
+        while True:
+            try:
+                got = os.read(self.notify_fd, 4096)
+            except BlockingIOError:
+                return n
+            if not got:
+                return n
+            n += len(got)
+
+    # -- usage --------------------------------------------------------------------------------
+    def calls(self) -> dict[str, int]:
+        """Interposed calls the flight code made, by name (only those used)."""
+        return {c.name.lower(): int(self.header.calls[c]) for c in abi.Call if self.header.calls[c]}
+
+    def uncovered(self) -> dict[str, int]:
+        return {name: n for name, n in self.calls().items() if abi.Call[name.upper()] >= abi.FIRST_UNCOVERED}
+
+    @property
+    def attached(self) -> int:
+        return self.header.attached
+
+    # -- end ----------------------------------------------------------------------------------
+    def free_run(self) -> None:
+        """Stop scheduling: the flight code's clocks continue at the host's rate from here and
+        its waits use host timeouts (teardown: SIGTERM handling, late log lines)."""
+        if self._closed or self.header.mode == abi.Mode.FREE_RUN:
+            return
+        self.header.free_run_host_ns = clock.monotonic_ns()
+        self.header.mode = abi.Mode.FREE_RUN
+        for i, s in enumerate(self.slots):
+            if s.tid:
+                self.wake(i)
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self.free_run()
+        self._closed = True
+        for fd in (self.notify_fd, *self.wake_fds):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+        # ctypes views keep exports of the map alive; drop them before closing it
+        del self.header, self.slots
+        with contextlib.suppress(BufferError):
+            self._map.close()
+        for p in [self.path, Path(f"{self.path}.n"), *(Path(f"{self.path}.w{i:02d}") for i in range(abi.MAX_THREADS))]:
+            with contextlib.suppress(FileNotFoundError):
+                p.unlink()
+
+
+def pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except OSError as exc:
+        return exc.errno == errno.EPERM
+    return True

@@ -1,0 +1,284 @@
+"""The bench as the flight code's scheduler (virtual time, docs/time.md).
+
+The flight code's clock reads sim time (the shim maps its clocks onto the control block).
+The bench advances that clock only when the flight code is **idle**: every thread it has
+is blocked in an interposed wait, none of those waits can end by itself (no fd it waits on
+is readable, no deadline has passed), and every byte either side wrote has been taken in
+(the bench drained the flight code's output; its own output is readable at the other end).
+Then nothing the flight code does depends on how fast the host is, and the next event is
+either the next tick or the earliest deadline the flight code is waiting for.
+
+Why the check is exact: a pty delivers through a kernel work item, but ``poll`` on either
+end first runs any pending work (n_tty_poll -> tty_buffer_flush_work). So a zero-timeout
+poll on the bench's own slave descriptor says whether the client could read now; the shim
+publishes the device numbers it waits on before it sleeps, and re-reads the slot's sequence
+number after the check to catch a thread that moved meanwhile.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import select
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Protocol
+
+from hil import clock
+from hil.vtime.control import ControlBlock, ThreadView, pid_alive
+
+POLLIN, POLLPRI, POLLOUT = select.POLLIN, select.POLLPRI, select.POLLOUT
+
+
+class ScheduledPort(Protocol):
+    """What the scheduler needs of a port (``hil.transport.pty.PtyPort``)."""
+
+    name: str
+
+    @property
+    def master_fd(self) -> int: ...
+    @property
+    def slave_fd(self) -> int: ...
+    @property
+    def rdev_key(self) -> int: ...
+    @property
+    def writes(self) -> int: ...
+    def read_available(self) -> bool: ...
+
+
+@dataclass(frozen=True)
+class Stall:
+    """What the flight code was doing when the bench had waited long for it (wall time)."""
+
+    waited_s: float
+    threads: tuple[ThreadView, ...]
+
+
+class VirtualClock:
+    """Sim time for one flight-code process tree, driven by the tick loop.
+
+    Bench time ``t_ns`` (the plant's sim time) and the flight code's clock differ by a
+    constant offset that changes once, when boot ends (``rebase``), so the flight code's
+    clock never jumps while the plant starts at 0.
+    """
+
+    def __init__(
+        self,
+        ctl: ControlBlock,
+        ports: Mapping[str, ScheduledPort],
+        *,
+        stall_warn_s: float = 5.0,
+        on_stall: Callable[[Stall], None] | None = None,
+    ) -> None:
+        self.ctl = ctl
+        self.ports = dict(ports)
+        self._by_key = {p.rdev_key: p for p in self.ports.values()}
+        self._master = {p.master_fd: p for p in self.ports.values()}
+        self._masters = list(self._master)
+        self._writes = {name: p.writes for name, p in self.ports.items()}
+        self.offset_ns = 0
+        self.t_ns = 0
+        self.pid: int | None = None
+        self._woken: dict[int, int] = {}  #: slot -> the seq it was woken at (wake once per wait)
+        self._cpu_last = 0
+        self.stall_warn_s = stall_warn_s
+        self.on_stall = on_stall
+        self.stalls = 0
+        self._loop = asyncio.get_running_loop()
+        self._loop.add_reader(ctl.notify_fd, self._on_notify)
+        self._waiter: asyncio.Future[None] | None = None
+        self._closed = False
+
+    # -- clock ------------------------------------------------------------------------------------
+    def start(self, t_ns: int) -> None:
+        """The flight code's clock reads 0 at bench time ``t_ns``."""
+        self.offset_ns = -t_ns
+        self.set_time(t_ns)
+
+    def rebase(self, old_t_ns: int, new_t_ns: int) -> None:
+        """Bench time ``old_t_ns`` is called ``new_t_ns`` from now on (the flight code's clock
+        is unchanged); the tick loop starts at 0 after boot."""
+        self.offset_ns += old_t_ns - new_t_ns
+        self.t_ns += new_t_ns - old_t_ns
+
+    def set_time(self, t_ns: int) -> None:
+        self.t_ns = t_ns
+        self.ctl.set_now(t_ns + self.offset_ns)
+
+    def fc_ns(self, t_ns: int) -> int:
+        return t_ns + self.offset_ns
+
+    # -- flight-code threads -------------------------------------------------------------------------
+    def attach(self, pid: int | None) -> None:
+        """The flight code process to schedule (after a start or restart)."""
+        self.pid = pid
+        self._woken.clear()
+
+    def attached(self) -> bool:
+        return self.pid is not None and self.pid in self.ctl.attached_pids()
+
+    async def wait_attached(self, timeout_s: float, running: Callable[[], bool]) -> bool:
+        """Wait (wall time) until the shim in the flight-code process has mapped the block.
+
+        The shim attaches before the program's main() and says so on the notify FIFO, so
+        this takes milliseconds; a program that cannot be preloaded never does. False on
+        timeout or if the process ended first."""
+        loop = self._loop
+        give_up = loop.time() + timeout_s
+        while not self.attached():
+            if not running() or loop.time() >= give_up:
+                return False
+            waiter = loop.create_future()
+            self._waiter = waiter
+            handle = loop.call_at(give_up, _resolve, waiter)
+            try:
+                await waiter
+            finally:
+                self._waiter = None
+                handle.cancel()
+        return True
+
+    def process_gone(self, pid: int | None) -> None:
+        if pid is not None:
+            self.ctl.clear_process(pid)
+        self.poke()
+
+    def next_deadline(self) -> int | None:
+        """Bench time of the earliest deadline a blocked flight-code thread waits for."""
+        deadlines = [t.deadline_ns for t in self.ctl.threads() if t.blocked and t.deadline_ns is not None]
+        return min(deadlines) - self.offset_ns if deadlines else None
+
+    def wake_due(self) -> None:
+        """End the waits whose deadline sim time has reached (each wait once)."""
+        now = self.fc_ns(self.t_ns)
+        for t in self.ctl.threads():
+            if t.blocked and t.deadline_ns is not None and t.deadline_ns <= now:
+                self._wake(t)
+
+    def _wake(self, t: ThreadView) -> None:
+        if self._woken.get(t.index) != t.seq:
+            self._woken[t.index] = t.seq
+            self.ctl.wake(t.index)
+
+    def cpu_ns(self) -> int:
+        """CPU time the flight code used since the last call (all its threads, as each last
+        published it when it blocked), ns of this host."""
+        total = sum(t.cpu_ns for t in self.ctl.threads() if t.pid == self.pid)
+        delta, self._cpu_last = total - self._cpu_last, total
+        return max(delta, 0)
+
+    # -- bytes ------------------------------------------------------------------------------------------
+    def flush_written(self) -> bool:
+        """Make every byte the bench wrote since the last call readable by the client now (a
+        zero-timeout poll runs the ptys' pending flush work); bumps the epoch if any."""
+        written = []
+        for name, p in self.ports.items():
+            w = p.writes
+            if w != self._writes[name]:
+                self._writes[name] = w
+                written.append(p.slave_fd)
+        if written:
+            select.select(written, [], [], 0)
+            self.ctl.bump_epoch()
+        return bool(written)
+
+    def _drain(self) -> None:
+        """Take in everything the flight code wrote (the poll in select flushes the work)."""
+        while True:
+            readable, _, _ = select.select(self._masters, [], [], 0)
+            if not readable:
+                return
+            for fd in readable:
+                self._master[fd].read_available()
+
+    # -- idle ---------------------------------------------------------------------------------------------
+    def _on_notify(self) -> None:
+        self.ctl.drain_notifications()
+        self.poke()
+
+    def poke(self) -> None:
+        """Something changed that may end a wait for idle (a thread blocked, a process exited)."""
+        waiter = self._waiter
+        if waiter is not None and not waiter.done():
+            waiter.set_result(None)
+
+    def check_idle(self) -> bool:
+        """One exact check (see the module docstring); never waits."""
+        threads = self.ctl.threads()
+        mine = [t for t in threads if t.pid == self.pid]
+        if not mine:
+            return False  # not attached yet, or restarting: nothing to schedule
+        for t in threads:
+            if not t.blocked:
+                if t.pid != self.pid and not pid_alive(t.pid):
+                    self.ctl.clear_process(t.pid)  # a child of the flight code that is gone
+                    continue
+                return False
+        self._drain()
+        self.flush_written()
+        now = self.fc_ns(self.t_ns)
+        epoch = self.ctl.epoch
+        readable: list[int] = []
+        writable: list[int] = []
+        for t in threads:
+            if t.deadline_ns is not None and t.deadline_ns <= now:
+                self._wake(t)
+                return False
+            if t.keys is None:  # an epoll set: only a check made after our last write counts
+                if t.seen_epoch != epoch:
+                    self._wake(t)
+                    return False
+                continue
+            for key, events in t.keys:
+                port = self._by_key.get(key)
+                if port is None:
+                    continue  # not ours: the bench does not control when it becomes ready
+                if events & (POLLIN | POLLPRI):
+                    readable.append(port.slave_fd)
+                if events & POLLOUT:
+                    writable.append(port.slave_fd)
+        if readable or writable:
+            r, w, _ = select.select(readable, writable, [], 0)
+            if r or w:
+                return False  # it is waking up (or about to) on bytes already there
+        return all(self.ctl.seq(t.index) == t.seq for t in threads)
+
+    async def idle(self, running: Callable[[], bool]) -> bool:
+        """Wait until the flight code is idle; False if it is not running (exited, killed).
+
+        Waits on the shim's notifications (a thread blocked) and on ``poke``; nothing polls.
+        After ``stall_warn_s`` of wall time without idle, ``on_stall`` hears about it once
+        (a debugger stop or a SIGSTOP is not an error: the wait goes on)."""
+        loop = self._loop
+        stall_at: float | None = None
+        reported = False
+        while True:
+            if not running():
+                return False
+            if self.check_idle():
+                return True
+            if stall_at is None:
+                stall_at = loop.time() + self.stall_warn_s
+            waiter = loop.create_future()
+            self._waiter = waiter
+            handle = None if reported else loop.call_at(stall_at, _resolve, waiter)
+            try:
+                await waiter
+            finally:
+                self._waiter = None
+                if handle is not None:
+                    handle.cancel()
+            if not reported and loop.time() >= stall_at:
+                reported = True
+                self.stalls += 1
+                if self.on_stall is not None:
+                    self.on_stall(Stall(self.stall_warn_s, tuple(self.ctl.threads())))
+
+    def close(self) -> None:
+        if not self._closed:
+            self._closed = True
+            self._loop.remove_reader(self.ctl.notify_fd)
+
+
+def _resolve(fut: asyncio.Future[None]) -> None:
+    if not fut.done():
+        fut.set_result(None)
