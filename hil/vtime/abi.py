@@ -30,6 +30,11 @@ class State(enum.IntEnum):
     BLOCKED = 2
 
 
+class Wait(enum.IntEnum):
+    FD = 0  #: on fds and/or the slot's wake FIFO
+    FUTEX = 1  #: on a lock, semaphore, condition variable or join
+
+
 class Call(enum.IntEnum):
     """Index into ``Header.calls``: which interposed calls the flight code made."""
 
@@ -101,7 +106,9 @@ class Slot(ctypes.Structure):
         ("key_events", ctypes.c_uint16 * MAX_KEYS),
         ("spin_yields", ctypes.c_uint32),
         ("clock_reads", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint64 * 3),
+        ("wait_kind", ctypes.c_uint32),
+        ("reserved32", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint64 * 2),
     ]
 
 
@@ -123,5 +130,5 @@ def expected_layout() -> tuple[int, ...]:
         Header.time_seq.offset, Header.now_ns.offset, Header.free_run_host_ns.offset, Header.epoch.offset,
         Header.calls.offset,
         Slot.seq.offset, Slot.deadline_ns.offset, Slot.cpu_ns.offset, Slot.nkeys.offset,
-        Slot.key_rdev.offset, Slot.key_events.offset, Slot.clock_reads.offset,
+        Slot.key_rdev.offset, Slot.key_events.offset, Slot.clock_reads.offset, Slot.wait_kind.offset,
     )  # fmt: skip

@@ -48,6 +48,7 @@ class ThreadView:
     seen_epoch: int
     keys: tuple[tuple[int, int], ...] | None  #: (rdev key, poll events); None: not known (epoll)
     spin_yields: int
+    futex: bool = False  #: blocked on a lock/semaphore/condition/join of its own process
 
 
 class ControlBlock:
@@ -124,7 +125,7 @@ class ControlBlock:
             deadline = s.deadline_ns
             out.append(
                 ThreadView(i, s.tid, s.pid, seq, blocked, None if deadline == abi.NO_DEADLINE else deadline,
-                           s.cpu_ns, s.seen_epoch, keys, s.spin_yields)
+                           s.cpu_ns, s.seen_epoch, keys, s.spin_yields, s.wait_kind == abi.Wait.FUTEX)
             )
         return out
 
@@ -198,6 +199,17 @@ class ControlBlock:
         for p in [self.path, Path(f"{self.path}.n"), *(Path(f"{self.path}.w{i:02d}") for i in range(abi.MAX_THREADS))]:
             with contextlib.suppress(FileNotFoundError):
                 p.unlink()
+
+
+def asleep_in_kernel(pid: int, tid: int) -> bool:
+    """True if the kernel has thread ``tid`` asleep (state S or D): a futex wake-up makes a
+    thread runnable (R) before it returns to the shim."""
+    try:
+        with open(f"/proc/{pid}/task/{tid}/stat", "rb") as f:
+            stat = f.read()
+    except OSError:
+        return True  # gone: nothing left to wait for (the exit is noticed separately)
+    return stat[stat.rindex(b")") + 2 : stat.rindex(b")") + 3] in (b"S", b"D")
 
 
 def pid_alive(pid: int) -> bool:

@@ -28,6 +28,13 @@ enum hvt_mode {
     HVT_MODE_FREE_RUN = 2, /* teardown: clocks continue from sim time at the host's rate */
 };
 
+/* slot.wait_kind: how a BLOCKED thread waits */
+enum hvt_wait {
+    HVT_WAIT_FD = 0,    /* on fds and/or its wake FIFO: the bench can end it */
+    HVT_WAIT_FUTEX = 1, /* on a lock, semaphore, condition or join: another thread ends it
+                         * (the bench checks /proc that the kernel has it asleep) */
+};
+
 /* slot.state */
 enum hvt_state {
     HVT_FREE = 0,
@@ -104,7 +111,9 @@ struct hvt_slot {
     uint16_t key_events[HVT_MAX_KEYS]; /* poll events the thread waits for on that device */
     uint32_t spin_yields;
     uint32_t clock_reads;      /* since the last blocking call (busy-wait detection) */
-    uint64_t reserved[3];
+    uint32_t wait_kind;        /* enum hvt_wait, valid while BLOCKED */
+    uint32_t reserved32;
+    uint64_t reserved[2];
 };
 
 #endif

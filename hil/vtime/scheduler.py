@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from hil import clock
-from hil.vtime.control import ControlBlock, ThreadView, pid_alive
+from hil.vtime.control import ControlBlock, ThreadView, asleep_in_kernel, pid_alive
 
 POLLIN, POLLPRI, POLLOUT = select.POLLIN, select.POLLPRI, select.POLLOUT
 
@@ -155,6 +155,8 @@ class VirtualClock:
                 self._wake(t)
 
     def _wake(self, t: ThreadView) -> None:
+        if t.futex:
+            return  # ends on the host clock by itself (a futex cannot wait on our FIFO)
         if self._woken.get(t.index) != t.seq:
             self._woken[t.index] = t.seq
             self.ctl.wake(t.index)
@@ -223,6 +225,10 @@ class VirtualClock:
             if t.deadline_ns is not None and t.deadline_ns <= now:
                 self._wake(t)
                 return False
+            if t.futex:
+                if t.tid < 0 or not asleep_in_kernel(t.pid, t.tid):
+                    return False  # another thread just woke it (or it is about to sleep)
+                continue
             if t.keys is None:  # an epoll set: only a check made after our last write counts
                 if t.seen_epoch != epoch:
                     self._wake(t)

@@ -66,7 +66,7 @@ EXPORT const uint32_t hvt_abi_layout[] = {
     offsetof(struct hvt_slot, seq), offsetof(struct hvt_slot, deadline_ns),
     offsetof(struct hvt_slot, cpu_ns), offsetof(struct hvt_slot, nkeys),
     offsetof(struct hvt_slot, key_rdev), offsetof(struct hvt_slot, key_events),
-    offsetof(struct hvt_slot, clock_reads),
+    offsetof(struct hvt_slot, clock_reads), offsetof(struct hvt_slot, wait_kind),
 };
 
 /* ---- the real functions --------------------------------------------------------------- */
@@ -256,14 +256,27 @@ static void drain(int fd) {
     }
 }
 
+static struct hvt_slot *claim(int reserved_index);
+
 static struct hvt_slot *my_slot(void) {
     if (tl_claim == 1)
         return tl_slot;
     if (tl_claim == 2 || !H)
         return NULL;
+    return claim(-1);
+}
+
+/* Take a slot for the calling thread: the one its creator reserved, the one it had before
+ * an exec, or a free one. */
+static struct hvt_slot *claim(int reserved_index) {
     int32_t tid = (int32_t)syscall(SYS_gettid), pid = getpid();
     struct hvt_slot *found = NULL;
     int index = -1;
+    if (reserved_index >= 0) {
+        found = &SLOTS[reserved_index];
+        index = reserved_index;
+        __atomic_store_n(&found->tid, tid, __ATOMIC_RELEASE);
+    }
     /* The same thread after an exec keeps its slot. */
     for (int i = 0; i < HVT_MAX_THREADS && !found; i++)
         if (__atomic_load_n(&SLOTS[i].tid, __ATOMIC_ACQUIRE) == tid && SLOTS[i].pid == pid)
@@ -308,7 +321,8 @@ static int64_t thread_cpu_ns(void) {
 }
 
 static void publish_blocked(struct hvt_slot *s, const struct pollfd *fds, nfds_t n, int64_t deadline,
-                            uint32_t epoch, int unknown) {
+                            uint32_t epoch, int unknown, uint32_t kind) {
+    s->wait_kind = kind;
     s->deadline_ns = deadline;
     s->seen_epoch = epoch;
     s->cpu_ns = thread_cpu_ns();
@@ -334,6 +348,13 @@ static void publish_blocked(struct hvt_slot *s, const struct pollfd *fds, nfds_t
     s->nkeys = k;
     __atomic_store_n(&s->state, HVT_BLOCKED, __ATOMIC_RELEASE);
     __atomic_store_n(&s->seq, s->seq + 1, __ATOMIC_RELEASE);
+}
+
+static void notify_bench(void) {
+    if (notify_fd >= 0) {
+        ssize_t w = write(notify_fd, "b", 1);
+        (void)w; /* a full FIFO already holds a wake-up for the bench */
+    }
 }
 
 static void publish_running(struct hvt_slot *s) {
@@ -387,11 +408,8 @@ static int vt_wait(struct pollfd *fds, nfds_t n, int64_t deadline, const sigset_
             result = host_wait(fds, n, deadline, mask);
             break;
         }
-        publish_blocked(s, fds, n, deadline, epoch, unknown);
-        if (notify_fd >= 0) {
-            ssize_t w = write(notify_fd, "b", 1);
-            (void)w; /* a full FIFO already holds a wake-up for the bench */
-        }
+        publish_blocked(s, fds, n, deadline, epoch, unknown, HVT_WAIT_FD);
+        notify_bench();
         memcpy(all, fds, n * sizeof *fds);
         all[n].fd = tl_wake_fd;
         all[n].events = POLLIN;
@@ -796,6 +814,144 @@ EXPORT int epoll_pwait2(int epfd, struct epoll_event *events, int max, const str
     return epoll_common(epfd, events, max, tmo ? vt_now() + ts_ns(tmo) : HVT_NO_DEADLINE, mask);
 }
 
+/* pthread_cond_* exist in two versions; the default symbol is the old one (libfaketime hit it). */
+#if defined(__x86_64__)
+#define COND_VERSION "GLIBC_2.3.2"
+#else
+#define COND_VERSION NULL
+#endif
+
+/* ---- waits on other threads: locks, semaphores, conditions, joins ------------------------
+ *
+ * Such a wait can only be ended by another thread of the flight code (or its timeout), so
+ * while it lasts the thread is blocked as far as the bench is concerned. Published with
+ * wait_kind FUTEX; the bench also asks the kernel (/proc) whether the thread is really
+ * asleep, because a wake-up makes it runnable before it returns here. A timed wait carries
+ * its deadline in sim time, but the wait itself ends on the host clock (a futex cannot wait
+ * on the wake FIFO), so it is counted as uncovered.
+ */
+
+static struct hvt_slot *futex_enter(int64_t deadline) {
+    struct hvt_slot *s = my_slot();
+    if (!s || free_running())
+        return NULL;
+    publish_blocked(s, NULL, 0, deadline, load_u32(&H->epoch), 0, HVT_WAIT_FUTEX);
+    notify_bench();
+    return s;
+}
+
+static void futex_leave(struct hvt_slot *s) {
+    if (s)
+        publish_running(s);
+}
+
+/* The sim-time deadline of an absolute timeout read from clock id (none for host clocks). */
+static int64_t sim_deadline(clockid_t id, const struct timespec *abs) {
+    enum kind k = clock_kind(id);
+    return (abs && virtual_kind(k)) ? ts_ns(abs) - clock_base(k) : HVT_NO_DEADLINE;
+}
+
+typedef int (*sem_wait_fn)(sem_t *);
+typedef int (*cond_wait_fn)(pthread_cond_t *, pthread_mutex_t *);
+typedef int (*mutex_lock_fn)(pthread_mutex_t *);
+typedef int (*join_fn)(pthread_t, void **);
+typedef int (*create_fn)(pthread_t *, const pthread_attr_t *, void *(*)(void *), void *);
+
+EXPORT int sem_wait(sem_t *sem) {
+    REAL(sem_wait, sem_wait_fn);
+    if (!active())
+        return real_sem_wait(sem);
+    if (sem_trywait(sem) == 0)
+        return 0;
+    struct hvt_slot *s = futex_enter(HVT_NO_DEADLINE);
+    int r = real_sem_wait(sem);
+    int saved = errno;
+    futex_leave(s);
+    errno = saved;
+    return r;
+}
+
+EXPORT int pthread_cond_wait(pthread_cond_t *cond, pthread_mutex_t *mutex) {
+    REAL_V(pthread_cond_wait, cond_wait_fn, COND_VERSION);
+    if (!active())
+        return real_pthread_cond_wait(cond, mutex);
+    struct hvt_slot *s = futex_enter(HVT_NO_DEADLINE);
+    int r = real_pthread_cond_wait(cond, mutex);
+    futex_leave(s);
+    return r;
+}
+
+EXPORT int pthread_mutex_lock(pthread_mutex_t *mutex) {
+    REAL(pthread_mutex_lock, mutex_lock_fn);
+    if (!active())
+        return real_pthread_mutex_lock(mutex);
+    int r = pthread_mutex_trylock(mutex);
+    if (r != EBUSY)
+        return r; /* taken (or an error the blocking call would give too) */
+    struct hvt_slot *s = futex_enter(HVT_NO_DEADLINE);
+    r = real_pthread_mutex_lock(mutex);
+    futex_leave(s);
+    return r;
+}
+
+EXPORT int pthread_join(pthread_t thread, void **retval) {
+    REAL(pthread_join, join_fn);
+    if (!active())
+        return real_pthread_join(thread, retval);
+    struct hvt_slot *s = futex_enter(HVT_NO_DEADLINE);
+    int r = real_pthread_join(thread, retval);
+    futex_leave(s);
+    return r;
+}
+
+struct start {
+    void *(*fn)(void *);
+    void *arg;
+    int index;
+};
+
+static void *start_thread(void *p) {
+    struct start st = *(struct start *)p;
+    free(p);
+    claim(st.index);
+    return st.fn(st.arg);
+}
+
+/* The creator reserves the new thread's slot (running) before the thread exists, so the
+ * bench never sees an instant where it runs unregistered. */
+EXPORT int pthread_create(pthread_t *thread, const pthread_attr_t *attr, void *(*fn)(void *), void *arg) {
+    REAL(pthread_create, create_fn);
+    if (!H || free_running())
+        return real_pthread_create(thread, attr, fn, arg);
+    int index = -1;
+    for (int i = 0; i < HVT_MAX_THREADS && index < 0; i++) {
+        int32_t expected = 0;
+        if (__atomic_compare_exchange_n(&SLOTS[i].tid, &expected, -1, 0, __ATOMIC_ACQ_REL, __ATOMIC_RELAXED))
+            index = i;
+    }
+    struct start *st = index >= 0 ? malloc(sizeof *st) : NULL;
+    if (!st) {
+        if (index >= 0)
+            __atomic_store_n(&SLOTS[index].tid, 0, __ATOMIC_RELEASE);
+        return real_pthread_create(thread, attr, fn, arg); /* it claims a slot itself, or none */
+    }
+    struct hvt_slot *slot = &SLOTS[index];
+    slot->pid = getpid();
+    uint32_t seq = __atomic_load_n(&slot->seq, __ATOMIC_RELAXED);
+    __atomic_store_n(&slot->state, HVT_RUNNING, __ATOMIC_RELEASE);
+    __atomic_store_n(&slot->seq, seq + (seq & 1u), __ATOMIC_RELEASE);
+    st->fn = fn;
+    st->arg = arg;
+    st->index = index;
+    int r = real_pthread_create(thread, attr, start_thread, st);
+    if (r != 0) {
+        free(st);
+        __atomic_store_n(&slot->state, HVT_FREE, __ATOMIC_RELEASE);
+        __atomic_store_n(&slot->tid, 0, __ATOMIC_RELEASE);
+    }
+    return r;
+}
+
 /* ---- uncovered: counted, so the bench can warn ----------------------------------------- */
 
 EXPORT int timerfd_create(int clockid, int flags) {
@@ -839,19 +995,18 @@ static clockid_t cond_clock(const pthread_cond_t *cond) {
     return (wrefs & 2u) ? CLOCK_MONOTONIC : CLOCK_REALTIME;
 }
 
-#if defined(__x86_64__)
-#define COND_VERSION "GLIBC_2.3.2"
-#else
-#define COND_VERSION NULL
-#endif
-
 EXPORT int pthread_cond_timedwait(pthread_cond_t *cond, pthread_mutex_t *mutex, const struct timespec *abs) {
     REAL_V(pthread_cond_timedwait, cond_timedwait_fn, COND_VERSION);
     if (!active())
         return real_pthread_cond_timedwait(cond, mutex, abs);
     count(HVT_CALL_COND_TIMEDWAIT);
     struct timespec host = to_host(cond_clock(cond), abs);
-    return real_pthread_cond_timedwait(cond, mutex, &host);
+    struct hvt_slot *s = futex_enter(sim_deadline(cond_clock(cond), abs));
+    int r = real_pthread_cond_timedwait(cond, mutex, &host);
+    int saved = errno;
+    futex_leave(s);
+    errno = saved;
+    return r;
 }
 
 EXPORT int pthread_cond_clockwait(pthread_cond_t *cond, pthread_mutex_t *mutex, clockid_t id,
@@ -861,7 +1016,12 @@ EXPORT int pthread_cond_clockwait(pthread_cond_t *cond, pthread_mutex_t *mutex, 
         return real_pthread_cond_clockwait(cond, mutex, id, abs);
     count(HVT_CALL_COND_TIMEDWAIT);
     struct timespec host = to_host(id, abs);
-    return real_pthread_cond_clockwait(cond, mutex, id, &host);
+    struct hvt_slot *s = futex_enter(sim_deadline(id, abs));
+    int r = real_pthread_cond_clockwait(cond, mutex, id, &host);
+    int saved = errno;
+    futex_leave(s);
+    errno = saved;
+    return r;
 }
 
 EXPORT int sem_timedwait(sem_t *sem, const struct timespec *abs) {
@@ -870,7 +1030,12 @@ EXPORT int sem_timedwait(sem_t *sem, const struct timespec *abs) {
         return real_sem_timedwait(sem, abs);
     count(HVT_CALL_SEM_TIMEDWAIT);
     struct timespec host = to_host(CLOCK_REALTIME, abs);
-    return real_sem_timedwait(sem, &host);
+    struct hvt_slot *s = futex_enter(sim_deadline(CLOCK_REALTIME, abs));
+    int r = real_sem_timedwait(sem, &host);
+    int saved = errno;
+    futex_leave(s);
+    errno = saved;
+    return r;
 }
 
 EXPORT int sem_clockwait(sem_t *sem, clockid_t id, const struct timespec *abs) {
@@ -879,7 +1044,12 @@ EXPORT int sem_clockwait(sem_t *sem, clockid_t id, const struct timespec *abs) {
         return real_sem_clockwait(sem, id, abs);
     count(HVT_CALL_SEM_TIMEDWAIT);
     struct timespec host = to_host(id, abs);
-    return real_sem_clockwait(sem, id, &host);
+    struct hvt_slot *s = futex_enter(sim_deadline(id, abs));
+    int r = real_sem_clockwait(sem, id, &host);
+    int saved = errno;
+    futex_leave(s);
+    errno = saved;
+    return r;
 }
 
 EXPORT int pthread_mutex_timedlock(pthread_mutex_t *mutex, const struct timespec *abs) {
@@ -888,7 +1058,12 @@ EXPORT int pthread_mutex_timedlock(pthread_mutex_t *mutex, const struct timespec
         return real_pthread_mutex_timedlock(mutex, abs);
     count(HVT_CALL_MUTEX_TIMEDLOCK);
     struct timespec host = to_host(CLOCK_REALTIME, abs);
-    return real_pthread_mutex_timedlock(mutex, &host);
+    struct hvt_slot *s = futex_enter(sim_deadline(CLOCK_REALTIME, abs));
+    int r = real_pthread_mutex_timedlock(mutex, &host);
+    int saved = errno;
+    futex_leave(s);
+    errno = saved;
+    return r;
 }
 
 /* ---- attach / detach ------------------------------------------------------------------- */
