@@ -128,7 +128,7 @@ class TickLoop:
         self.t_ns = -int(boot_timeout_s * 1e9)
         self.k = -1
         self._barrier: asyncio.Future[int] | None = None
-        self._rt_emit: tuple[int, int] | None = None
+        self._rt_emit: tuple[int, int, int] | None = None  #: realtime: (sim ns, host emit ns, lateness ns)
         self._awaiting: int | None = None  #: VIRTUAL: the sample whose command is due
         self._arrival: tuple[int, int] | None = None  #: VIRTUAL: (host ns, sim ns) of that command
         devices.on_esc_command = self._esc_command
@@ -144,10 +144,10 @@ class TickLoop:
             fut.set_result(t_host_ns)
         elif self._rt_emit is not None:
             # realtime: the first command after a sample answers that sample
-            t_sample, t_emit = self._rt_emit
+            t_sample, t_emit, late = self._rt_emit
             self._rt_emit = None
             self.stats.latencies_ns.append(t_host_ns - t_emit)
-            self.devices.note_latency(LatencySample(t_sample, t_emit, t_host_ns))
+            self.devices.note_latency(LatencySample(t_sample, t_emit, t_host_ns, lateness_ns=late))
 
     # -- boot ---------------------------------------------------------------------------------------
     async def boot(self) -> None:
@@ -348,8 +348,9 @@ class TickLoop:
                     self._barrier = None
                 elif emitted:
                     if self._rt_emit is not None:  # the previous sample got no command
-                        devices.note_latency(LatencySample(self._rt_emit[0], self._rt_emit[1], None))
-                    self._rt_emit = (t_ns, t_emit)
+                        t_prev, emit_prev, late_prev = self._rt_emit
+                        devices.note_latency(LatencySample(t_prev, emit_prev, None, lateness_ns=late_prev))
+                    self._rt_emit = (t_ns, t_emit, lateness)
                 after = clock.monotonic_ns()
                 devices.finish_tick(t_ns)
                 if self.after_tick is not None:

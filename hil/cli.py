@@ -50,6 +50,7 @@ def run(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     stress_cpu: Annotated[int, typer.Option(help="Timing stress: CPU-bound processes beside the flight code.")] = 0,
     stress_adc_delay_us: Annotated[float, typer.Option(help="Timing stress: hold every ADC bridge reply back (wall us).")] = 0.0,
+    wall_clock: Annotated[bool, typer.Option("--wall-clock", help="Lockstep with the flight code on the host clock (no clock shim; docs/time.md). For comparisons only: load then changes the flight.")] = False,
 ) -> None:
     """Fly the flight code against the emulated vehicle and write one MCAP log."""
     from hil.bench import Mode
@@ -118,6 +119,7 @@ def run(
                 record=not no_record,
                 progress=on_progress,
                 scenario_source=source,
+                virtual_time=False if wall_clock else None,
                 stress_cpu=stress_cpu,
                 stress_adc_delay_us=stress_adc_delay_us,
             )
@@ -206,7 +208,9 @@ def timing(
         ("response latency (us): IMU emitted -> ESC command", rep.latency_us),
         ("ESC command period (us)", rep.period_us),
         ("period jitter |T - 2500| (us)", rep.jitter_us),
-        ("flight code's own compute (us, telemetry)", rep.compute_us),
+        (("flight code's CPU per sample (us, x cpu_scale)" if rep.compute_source == "cpu"
+          else "flight code's own compute (us, telemetry)"), rep.compute_us),
+        *([("tick lateness (us): start - wall deadline", rep.lateness_us)] if rep.lateness_us is not None else []),
     ):
         table.add_row(name, str(st.n), *(f"{v:.1f}" for v in (st.p50, st.p99, st.p999, st.max, st.mean)))
     console.print(table)
@@ -214,10 +218,13 @@ def timing(
         f"samples {rep.samples}; over the {rep.budget_us:g} us budget: {rep.misses}; "
         f"no ESC command at all: {rep.no_command}"
     )
+    if rep.realtime is not None:
+        console.print(rep.realtime.text, style=None if rep.realtime.held else "bold red", highlight=False)
     out = plot_latency(log, png or log.with_name(log.name.removesuffix(".mcap") + "_timing.png"), budget_us)
     if out is not None:
         console.print(f"histogram: {out}")
-    raise typer.Exit(0 if rep.misses == 0 and rep.no_command == 0 else 1)
+    held = rep.realtime is None or rep.realtime.held
+    raise typer.Exit(0 if rep.misses == 0 and rep.no_command == 0 and held else 1)
 
 
 @app.command()

@@ -47,6 +47,7 @@ class LatencySample:
     t_arrival_host_ns: int | None  #: when its ESC command arrived (None: no command, a miss)
     t_arrival_ns: int | None = None  #: virtual time: the command's sim time
     fc_cpu_ns: int | None = None  #: virtual time: the flight code's CPU time for it (host ns)
+    lateness_ns: int | None = None  #: realtime: how late the tick that emitted it started (host ns)
 
 
 def spawn_rngs(seed: int) -> dict[str, np.random.Generator]:

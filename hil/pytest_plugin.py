@@ -8,10 +8,12 @@
             await bench.until(lambda b: max(b.esc_command.pulse_us) <= 1000, timeout_s=0.05)
 
 Each ``start`` is one :func:`hil.run.run_flight_async` (own run dir, ptys, flight-code
-process, MCAP) running as a task in the test's event loop. The bench does not pause for
-the test: it ticks whenever the test awaits, and the flight code's IMU watchdog is a
-wall-clock read timeout, so test code must not hold the event loop for long between
-awaits (stalls over ``STALL_WARN_S`` are reported as :class:`HilBenchStallWarning`).
+process, MCAP) running as a task in the test's event loop. The bench ticks whenever the
+test awaits. In lockstep the flight code runs on the bench's clock (virtual time,
+docs/time.md), so test code may hold the event loop as long as it likes: sim time, and
+the flight code's IMU watchdog with it, stands still meanwhile. Only where lockstep falls
+back to the host clock (or in realtime) do stalls over ``STALL_WARN_S`` matter; they are
+then reported as :class:`HilBenchStallWarning`.
 ``until`` / ``always`` / ``run_for`` judge the predicate at every tick (hook after the
 tick, no polling) and return the sim time of the deciding tick; a few more ticks may pass
 before the test's next statement runs. Teardown stops the run (flight code stopped, MCAP
@@ -52,7 +54,7 @@ S = 1_000_000_000
 RAD2DEG = 180.0 / math.pi
 #: sim duration of an inline scenario that does not give one (the test usually stops first)
 INLINE_DURATION_S = 60.0
-#: event-loop stalls longer than this are reported (the flight code's IMU watchdog is 0.1 s)
+#: host-clock runs: event-loop stalls longer than this are reported (the IMU watchdog is 0.1 s)
 STALL_WARN_S = 0.05
 _STALL_PERIOD_S = 0.02
 
@@ -299,7 +301,9 @@ class Bench:
         now = clock.monotonic_ns()
         late_s = (now - self._stall_due_ns) / S
         ticking = self.loop is not None and self.loop.stats.wall_end_ns == 0  # not the end-of-run work
-        if late_s > STALL_WARN_S and ticking:
+        # on virtual time the flight code's clock stops with the bench: a stall changes nothing
+        host_clock = self.loop is not None and self.loop.stats.clock.value != "virtual"
+        if late_s > STALL_WARN_S and ticking and host_clock:
             self.stalls.append((self.t_s, late_s))
         if ticking:
             self._stall_due_ns = now + int(_STALL_PERIOD_S * S)

@@ -38,6 +38,7 @@ from hil.runlog import RunLogger
 from hil.scenario import Scenario, load_scenario
 from hil.scenario_runner import ScenarioRunner
 from hil.stress import CpuHog
+from hil.timing import REALTIME_MAX_LATE_US, realtime_verdict, scaled_compute_us
 from hil.trace import Trace
 from hil.transport.pty import PtyPort
 from hil.vtime.preload import Fallback
@@ -148,7 +149,7 @@ def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None, cp
         jitter = np.abs(period - tick_ns / 1e3)
         out |= {"period_p50_us": float(np.percentile(period, 50)), "period_jitter_p99_us": float(np.percentile(jitter, 99))}
     if virtual:
-        out |= _percentiles("fc_compute", np.asarray(st.fc_cpu_ns) * cpu_scale / 1e3)
+        out |= _percentiles("fc_compute", scaled_compute_us(np.asarray(st.fc_cpu_ns) / 1e3, cpu_scale))
         out["boot_sim_s"] = st.boot_sim_ns / 1e9
     elif trace is not None:
         try:
@@ -159,6 +160,17 @@ def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None, cp
     if st.lateness_ns:
         out |= _percentiles("lateness", np.asarray(st.lateness_ns) / 1e3)
     return out
+
+
+def realtime_criterion(loop: TickLoop, tick_ns: int) -> CriterionResult | None:
+    """Realtime runs: did the pacer hold 400 Hz (hil.timing.realtime_verdict)? A run that
+    fell behind must not read as a 400 Hz run because its RTF is about 1."""
+    verdict = realtime_verdict(np.asarray(loop.stats.lateness_ns) / 1e3, tick_ns / 1e3)
+    if verdict is None:
+        return None
+    return CriterionResult("realtime held", "timing.lateness_us", "p99 / max", verdict.max_us,
+                           f"p99 <= {tick_ns / 1e3:g}, max <= {REALTIME_MAX_LATE_US:g}", verdict.held,
+                           "" if verdict.held else verdict.text)
 
 
 def default_log_path(out_dir: Path, rig: Rig, scenario: Scenario, seed: int) -> Path:
@@ -326,6 +338,9 @@ async def run_flight_async(
         criteria = evaluate(scenario.criteria, trace) if end is EndReason.COMPLETED else []
         timing_criteria = runner.timing_criteria(timing, logger)
         criteria += timing_criteria
+        held = realtime_criterion(loop, rig.tick_ns) if mode is Mode.REALTIME and end is EndReason.COMPLETED else None
+        if held is not None:
+            criteria.append(held)
         counters = logger.counters()
         stats = None
         if recorder is not None:

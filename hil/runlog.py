@@ -240,6 +240,7 @@ class RunLogger:
                             "latency_us": latency_us,
                             "host_latency_us": host_us,
                             "fc_cpu_us": lat.fc_cpu_ns / 1e3 if lat.fc_cpu_ns is not None else -1.0,
+                            "lateness_us": lat.lateness_ns / 1e3 if lat.lateness_ns is not None else -1.0,
                             "miss": arrival is None,
                         },
                         t_host,

@@ -12,7 +12,13 @@ Figures (all microseconds unless noted):
 * **jitter**: period minus its nominal value.
 * **misses**: samples whose latency exceeded the budget, plus samples with no command at
   all (barrier timeouts).
-* **compute**: the flight code's own per-loop compute time as it reports in telemetry.
+* **compute**: with virtual time, the flight code's CPU time per sample (read by the clock
+  shim at each blocking call) times the rig's ``cpu_scale`` (docs/time.md); otherwise the
+  flight code's own per-loop compute time as it reports in telemetry. The run summary and
+  ``hil timing`` compute it the same way (:func:`scaled_compute_us`).
+* **lateness** (realtime only): how late each tick started against its absolute wall
+  deadline. A run whose ticks fell behind is not a 400 Hz run, whatever its RTF says:
+  :func:`realtime_verdict` says whether realtime was held.
 """
 
 from __future__ import annotations
@@ -23,6 +29,12 @@ from pathlib import Path
 import numpy as np
 
 NOMINAL_PERIOD_US = 2500.0
+#: a realtime tick that starts this late counts as late (hil.bench.LATE_NS)
+LATE_US = 1000.0
+#: realtime is not held when any tick starts later than this: the flight code then saw a
+#: gap of ten samples (its IMU watchdog is 100 ms; this machine's worst scheduling gaps are
+#: about 3 ms, research limits.md)
+REALTIME_MAX_LATE_US = 25_000.0
 
 
 @dataclass(frozen=True)
@@ -61,9 +73,52 @@ class TimingReport:
     compute_us: Stats
     misses: int  #: latency over budget
     no_command: int  #: barrier timeouts (no ESC command for a sample)
+    lateness_us: Stats | None = None  #: realtime: tick start - its wall deadline
+    realtime: RealtimeVerdict | None = None  #: realtime runs only
+    compute_source: str = "telemetry"  #: "cpu" (virtual time, scaled) or "telemetry"
 
     def as_dict(self) -> dict[str, object]:
         return asdict(self)
+
+
+@dataclass(frozen=True)
+class RealtimeVerdict:
+    """Did a realtime run keep 400 Hz? From the pacer's per-tick lateness."""
+
+    held: bool
+    ticks: int
+    late_ticks: int  #: more than LATE_US late
+    p99_us: float
+    max_us: float
+
+    @property
+    def text(self) -> str:
+        figures = (f"{self.late_ticks} of {self.ticks} ticks more than {LATE_US / 1e3:g} ms late, "
+                   f"lateness p99 {self.p99_us:.0f} us, max {self.max_us / 1e3:.1f} ms")
+        if self.held:
+            return f"realtime held: {figures}"
+        return (f"realtime NOT held: {figures} (allowed: p99 within one tick, none over "
+                f"{REALTIME_MAX_LATE_US / 1e3:g} ms); the samples reached the flight code late, so this "
+                "run's timing figures are not those of a 400 Hz loop")
+
+
+def realtime_verdict(lateness_us: np.ndarray, tick_us: float = NOMINAL_PERIOD_US) -> RealtimeVerdict | None:
+    """Held when the lateness p99 is within one tick and no tick is over REALTIME_MAX_LATE_US
+    late; None without lateness figures (a lockstep run)."""
+    late = np.asarray(lateness_us, dtype=float)
+    late = late[np.isfinite(late) & (late >= 0)]
+    if late.size == 0:
+        return None
+    p99, worst = float(np.percentile(late, 99)), float(late.max())
+    return RealtimeVerdict(p99 <= tick_us and worst <= REALTIME_MAX_LATE_US, int(late.size),
+                           int(np.sum(late > LATE_US)), p99, worst)
+
+
+def scaled_compute_us(fc_cpu_us: np.ndarray, cpu_scale: float) -> np.ndarray:
+    """The flight code's compute per sample on the target processor: its CPU time on this
+    host (us, -1 where not measured) times ``cpu_scale``; unmeasured samples dropped."""
+    cpu = np.asarray(fc_cpu_us, dtype=float)
+    return cpu[cpu >= 0] * cpu_scale
 
 
 def analyze_arrays(
@@ -73,8 +128,11 @@ def analyze_arrays(
     compute_us: np.ndarray | None = None,
     budget_us: float = NOMINAL_PERIOD_US,
     nominal_period_us: float = NOMINAL_PERIOD_US,
+    lateness_us: np.ndarray | None = None,
+    compute_source: str = "telemetry",
 ) -> TimingReport:
-    """The report from raw per-sample arrays; negative latency marks a missing command."""
+    """The report from raw per-sample arrays; negative latency marks a missing command,
+    negative lateness a lockstep sample."""
     lat = np.asarray(latency_us, dtype=float)
     missing = lat < 0
     lat_ok = lat[~missing]
@@ -83,6 +141,8 @@ def analyze_arrays(
     period = np.diff(arrivals) / 1e3 if arrivals.size > 1 else np.zeros(0)
     jitter = np.abs(period - nominal_period_us)
     comp = np.zeros(0) if compute_us is None else np.asarray(compute_us, dtype=float)
+    late = np.zeros(0) if lateness_us is None else np.asarray(lateness_us, dtype=float)
+    verdict = realtime_verdict(late, nominal_period_us)
     return TimingReport(
         samples=int(lat.size),
         budget_us=budget_us,
@@ -92,23 +152,33 @@ def analyze_arrays(
         compute_us=Stats.of(comp),
         misses=int(np.sum(lat_ok > budget_us)),
         no_command=int(np.sum(missing)),
+        lateness_us=None if verdict is None else Stats.of(late[late >= 0]),
+        realtime=verdict,
+        compute_source=compute_source,
     )
 
 
 def analyze_log(log: Path, budget_us: float = NOMINAL_PERIOD_US) -> TimingReport:
-    """The report of a run's MCAP (topics /hil/timing/tick and /fc/telemetry)."""
-    from hil.record import read_topic
+    """The report of a run's MCAP (topics /hil/timing/tick and /fc/telemetry; the run's
+    ``cpu_scale`` from its verdict metadata)."""
+    from hil.record import read_metadata, read_topic
 
     tick = read_topic(log, "/hil/timing/tick")
-    tm = read_topic(log, "/fc/telemetry")
-    compute = None
-    for key in ("compute_last_us", "compute_us", "loop_compute_us"):
-        if key in tm and tm[key].size:
-            compute = tm[key]
-            break
+    compute, source = None, "telemetry"
+    cpu = tick.get("fc_cpu_us") if tick else None
+    if cpu is not None and np.any(cpu >= 0):
+        verdict = read_metadata(log).get("verdict", {})
+        compute, source = scaled_compute_us(cpu, float(verdict.get("cpu_scale", "1") or 1)), "cpu"
+    else:
+        tm = read_topic(log, "/fc/telemetry")
+        for key in ("compute_last_us", "compute_us", "loop_compute_us"):
+            if key in tm and tm[key].size:
+                compute = tm[key]
+                break
     if not tick or "latency_us" not in tick:
-        return analyze_arrays(np.zeros(0), np.zeros(0), compute_us=compute, budget_us=budget_us)
-    return analyze_arrays(tick["latency_us"], tick["esc_arrival_host_ns"], compute_us=compute, budget_us=budget_us)
+        return analyze_arrays(np.zeros(0), np.zeros(0), compute_us=compute, budget_us=budget_us, compute_source=source)
+    return analyze_arrays(tick["latency_us"], tick["esc_arrival_host_ns"], compute_us=compute, budget_us=budget_us,
+                          lateness_us=tick.get("lateness_us"), compute_source=source)
 
 
 def plot_latency(log: Path, png: Path, budget_us: float = NOMINAL_PERIOD_US) -> Path | None:

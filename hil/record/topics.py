@@ -173,7 +173,7 @@ FC_TELEMETRY = _message(
     open_=True)
 
 TICK_TIMING = _message(
-    "hil.TickTiming", "Per-tick loop timing.", Stamp.TIMING, ("host_latency_us", "fc_cpu_us"),
+    "hil.TickTiming", "Per-tick loop timing.", Stamp.TIMING, ("host_latency_us", "fc_cpu_us", "lateness_us"),
     k=_int("tick index", 0), imu_emit_host_ns=_int("host time the IMU sample was written, ns"),
     esc_arrival_host_ns=_int("host time the ESC command arrived, ns (-1 if missed)"),
     latency_us=_num("IMU emit -> ESC command, us on the flight code's clock (sim time with virtual "
@@ -181,6 +181,8 @@ TICK_TIMING = _message(
     host_latency_us=_num("IMU written -> ESC command read, us of host time (-1 if missed)"),
     fc_cpu_us=_num("virtual time: the flight code's CPU time for this sample, us of this host, "
                    "unscaled (-1 if not measured)"),
+    lateness_us=_num("realtime: how late the tick that emitted the sample started against its wall "
+                     "deadline, us of host time (-1 in lockstep)"),
     miss=_bool("no command before the deadline"))
 
 EVENT = _message(

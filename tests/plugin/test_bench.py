@@ -91,7 +91,13 @@ async def test_waits_faults_and_record(hil_bench) -> None:
     assert t_s[np.argmax(mode == 2)] == pytest.approx(t_armed)
     timing = bench.timing()
     assert timing.samples == len(bench.record("/hil/timing/tick")["t_ns"]) > 1000
-    assert timing.latency_us.max >= 50_000  # the silent tick waited for the flight code's 0.1 s watchdog
+    # on the bench's clock the flight code's 0.1 s watchdog answered the silence exactly 0.1 s
+    # of sim time after the last sample before it, with minimum pulses
+    esc = bench.record("/hil/esc/command")
+    t_last = int(imu["t_ns"][t_imu < silence.t_start_s].max())
+    after = esc["t_ns"] > t_last
+    assert int(esc["t_ns"][after][0]) == t_last + 100_000_000
+    assert np.all(esc["targets_us"][after][0] <= 1000.0)
 
 
 async def test_stop_scenario_faults_and_live_values(hil_bench) -> None:
