@@ -72,7 +72,7 @@ class TickStats:
 
     ticks: int = 0
     samples: int = 0  #: ticks on which an IMU sample was emitted
-    barrier_misses: int = 0  #: lockstep: no ESC command for a sample (before the next tick)
+    barrier_misses: int = 0  #: lockstep: no ESC command for an emitted sample (before the next tick)
     late_ticks: int = 0  #: realtime: tick started more than 1 ms late
     latencies_ns: list[int] = field(default_factory=list)  #: IMU emit -> ESC command (wall; sim in VIRTUAL)
     lateness_ns: list[int] = field(default_factory=list)  #: realtime pacer lateness
@@ -282,9 +282,11 @@ class TickLoop:
             cpu_ns = vc.cpu_ns()
             if emitted:
                 stats.samples += 1
-            if (emitted or due) and self.flight_running():
+            arrival = self._arrival
+            # A sample a fault silenced asks nothing of the flight code: no miss without a
+            # command; its watchdog's command, if one comes at this tick, is recorded.
+            if (emitted or (due and arrival is not None)) and self.flight_running():
                 stats.fc_cpu_ns.append(cpu_ns)
-                arrival = self._arrival
                 if arrival is None:
                     stats.barrier_misses += 1
                     devices.note_latency(LatencySample(t_ns, t_emit, None, fc_cpu_ns=cpu_ns))

@@ -164,6 +164,8 @@ class Bench:
         self.schedule: FaultSchedule | None = None
         self.stalls: list[tuple[float, float]] = []  #: (sim t_s, stall s) of event-loop stalls
         self.stopped_by_test = False
+        #: set by the fixture's teardown: waits still suspended in the test end quietly
+        self.torn_down = False
         self._faults = list(faults)
         self._own_schedule = False
         self._setup_error: Exception | None = None
@@ -322,6 +324,10 @@ class Bench:
         if fut.done():
             return fut.result()
         fut.cancel()
+        if self.torn_down:
+            # the test is over (it timed out, or failed while this wait was left suspended):
+            # end the orphaned wait quietly rather than raise into a task nobody awaits
+            raise asyncio.CancelledError(f"the test's teardown stopped the run before {label}")
         if task.cancelled():
             raise RunEnded(f"the run's task was cancelled before {label}")
         if task.exception() is not None:
@@ -646,6 +652,7 @@ class HilBench:
             try:
                 if failure is not None:
                     b.log_event("test failed", {"nodeid": self.nodeid, "report": failure[-4000:]})
+                b.torn_down = True
                 result = await b.stop()
                 if b.stalls:
                     worst = max(s for _, s in b.stalls)

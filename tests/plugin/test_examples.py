@@ -14,7 +14,7 @@ pytestmark = [pytest.mark.system, pytest.mark.pty]
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "test_my_flight_code.py"
 TESTS = ("test_take_off_and_hover", "test_rc_loss_descends_and_disarms_on_the_ground",
-         "test_imu_silence_stops_the_motors")
+         "test_imu_silence_stops_the_motors", "test_a_short_imu_stall_is_flown_through")
 
 
 def test_example_file_passes(pytester: pytest.Pytester, tmp_path: Path) -> None:
@@ -22,7 +22,7 @@ def test_example_file_passes(pytester: pytest.Pytester, tmp_path: Path) -> None:
     keep = tmp_path / "kept"
     result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-v", "--hil-keep-logs", str(keep),
                                            "--hil-keep-all")
-    result.assert_outcomes(passed=3)
+    result.assert_outcomes(passed=len(TESTS))
     assert sorted(p.name for p in keep.iterdir()) == sorted(f"test_my_flight_code.py--{t}.mcap" for t in TESTS)
     for name in TESTS:
         meta = read_metadata(keep / f"test_my_flight_code.py--{name}.mcap")
