@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import asyncio
 import enum
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 
 from hil import clock
@@ -86,6 +86,9 @@ class TickStats:
 
 
 TickHook = Callable[[int, int], None]
+#: awaited before every lockstep tick on virtual time (the pytest plugin: tick only while the
+#: test awaits the bench, so sim time stands still while test code runs)
+TickGate = Callable[[], Awaitable[None]]
 
 
 class TickLoop:
@@ -123,6 +126,7 @@ class TickLoop:
         self.vclock = vclock if mode is Mode.LOCKSTEP else None
         self.attach_timeout_s = attach_timeout_s
         self.on_fallback = on_fallback
+        self.tick_gate: TickGate | None = None
         self.fallback_reason = ""
         self.stats = TickStats(clock=Clock.REALTIME if mode is Mode.REALTIME else Clock.WALL)
         self.t_ns = -int(boot_timeout_s * 1e9)
@@ -261,6 +265,8 @@ class TickLoop:
         tick_ns = self.tick_ns
         for k in range(self.duration_ns // tick_ns + 1):
             t_ns = k * tick_ns
+            if self.tick_gate is not None:
+                await self.tick_gate()
             await self._advance_to(vc, t_ns)
             if self.flight_exited.is_set():
                 return EndReason.FLIGHT_EXITED

@@ -8,12 +8,13 @@
             await bench.until(lambda b: max(b.esc_command.pulse_us) <= 1000, timeout_s=0.05)
 
 Each ``start`` is one :func:`hil.run.run_flight_async` (own run dir, ptys, flight-code
-process, MCAP) running as a task in the test's event loop. The bench ticks whenever the
-test awaits. In lockstep the flight code runs on the bench's clock (virtual time,
-docs/time.md), so test code may hold the event loop as long as it likes: sim time, and
-the flight code's IMU watchdog with it, stands still meanwhile. Only where lockstep falls
-back to the host clock (or in realtime) do stalls over ``STALL_WARN_S`` matter; they are
-then reported as :class:`HilBenchStallWarning`.
+process, MCAP) running as a task in the test's event loop. In lockstep the flight code runs
+on the bench's clock (virtual time, docs/time.md) and the bench ticks only while the test
+awaits one of its waits (``until``, ``always``, ``run_for``, a fault's start or end,
+``finish``): the test's own code takes no sim time, however long it runs, so what a test
+sees is the same on every run and every machine. Only where lockstep falls back to the host
+clock (or in realtime) does the bench tick on regardless; event-loop stalls over
+``STALL_WARN_S`` are then reported as :class:`HilBenchStallWarning`.
 ``until`` / ``always`` / ``run_for`` judge the predicate at every tick (hook after the
 tick, no polling) and return the sim time of the deciding tick; a few more ticks may pass
 before the test's next statement runs. Teardown stops the run (flight code stopped, MCAP
@@ -166,6 +167,14 @@ class Bench:
         self.stopped_by_test = False
         #: set by the fixture's teardown: waits still suspended in the test end quietly
         self.torn_down = False
+        #: an interrupt (pytest-timeout's Failed, KeyboardInterrupt) that landed in the bench's
+        #: task or a loop callback instead of the test: passed on to the test (_interrupt)
+        self.interrupted: BaseException | None = None
+        self._test_task: asyncio.Task[Any] | None = None
+        self._prev_handler: Any = None
+        #: the tick gate (virtual time): opened whenever the test starts a bench wait
+        self._gate_open = asyncio.Event()
+        self._finishing = False
         self._faults = list(faults)
         self._own_schedule = False
         self._setup_error: Exception | None = None
@@ -189,19 +198,55 @@ class Bench:
         from hil.bench import Mode
         from hil.run import run_flight_async
 
-        self._task = asyncio.get_running_loop().create_task(run_flight_async(
+        loop = asyncio.get_running_loop()
+        self._test_task = asyncio.current_task()
+        self._task = loop.create_task(run_flight_async(
             self.rig, self.scenario, mode=Mode(self.mode), seed=self.seed, duration_s=self.duration_s,
             out_dir=self.log_path.parent, log_path=self.log_path, on_ready=self._on_ready,
             scenario_source=self.source), name=f"hil-bench {self.log_path.stem}")
+        self._task.add_done_callback(self._run_done)
+        if self._test_task is not None:
+            self._test_task.add_done_callback(lambda _: self._gate_open.set())
+        self._prev_handler = loop.get_exception_handler()
+        loop.set_exception_handler(self._loop_exception)
         await self._watch("time", None, 0, "the first tick")
         if self._setup_error is not None:
             await self.stop()
             raise self._setup_error
 
+    # -- interrupts that land in the bench ---------------------------------------------------------------
+    # pytest-timeout (signal method) and Ctrl-C raise in whatever code runs when the signal
+    # comes, and the bench's tick is usually what runs. Raised in the run's task it ends the run
+    # (its log finalized) while the test would wait for ever; raised in a loop callback asyncio
+    # would only log it. Either way the test is cancelled and its bench waits raise it.
+    def _run_done(self, task: asyncio.Task[RunResult]) -> None:
+        if not task.cancelled() and task.exception() is not None and not isinstance(task.exception(), Exception):
+            self._interrupt(task.exception())  # type: ignore[arg-type]
+
+    def _loop_exception(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+        exc = context.get("exception")
+        if exc is not None and not isinstance(exc, Exception):
+            self._interrupt(exc)
+            if self._task is not None and not self._task.done():
+                self._task.cancel()  # the run cannot trust its state any more: end it, finalized
+        if self._prev_handler is not None:
+            self._prev_handler(loop, context)
+        else:
+            loop.default_exception_handler(context)
+
+    def _interrupt(self, exc: BaseException) -> None:
+        if self.interrupted is not None or self.torn_down:
+            return
+        self.interrupted = exc
+        test = self._test_task
+        if test is not None and not test.done():
+            test.cancel(f"the bench was interrupted by {type(exc).__name__}: {exc}")
+
     def _on_ready(self, loop: TickLoop, devices: DeviceSet, runner: ScenarioRunner) -> None:
         from hil.faults import FaultSchedule
 
         self.loop, self.devices, self.runner = loop, devices, runner
+        loop.tick_gate = self._gate
         self._last_k = loop.duration_ns // loop.tick_ns
         self._before, self._after = loop.before_tick, loop.after_tick
         loop.before_tick, loop.after_tick = self._before_tick, self._after_tick
@@ -220,6 +265,23 @@ class Bench:
             self._setup_error = exc
             self.schedule = FaultSchedule([], devices, log_event=runner.log_event, flight=runner.flight)
             self._own_schedule = True
+
+    # -- the tick gate ------------------------------------------------------------------------------------
+    def _test_waits(self) -> bool:
+        """The test awaits this bench (a wait, a fault's start or end, finish), or it is over."""
+        test = self._test_task
+        return (test is None or test.done() or self.torn_down or self._finishing
+                or any(not w.future.done() for w in self._watches) or any(not f.done() for _, f in self._requests))
+
+    async def _gate(self) -> None:
+        """On virtual time the bench ticks only while the test awaits it: the test's code between
+        two waits takes no sim time, however long it runs, so what it sees is deterministic. On
+        the host clock (realtime, the fallback) the flight code would not wait: no gate."""
+        if self.loop is None or self.loop.stats.clock.value != "virtual":
+            return
+        while not self._test_waits():
+            self._gate_open.clear()
+            await self._gate_open.wait()
 
     # -- hooks on the tick path (never raise: errors go to the waiting test) ----------------------------
     def _before_tick(self, k: int, t_ns: int) -> None:
@@ -316,11 +378,17 @@ class Bench:
         fut: asyncio.Future[float] = asyncio.get_running_loop().create_future()
         t0 = self.loop.t_ns if self.loop is not None else 0
         self._watches.append(_Watch(kind, predicate, max(t0, 0) + span_ns, fut, label, t0))
+        self._gate_open.set()
         return await self._outcome(fut, label)
 
     async def _outcome(self, fut: asyncio.Future[Any], label: str) -> Any:
         task = self._require_task()
-        await asyncio.wait({fut, task}, return_when=asyncio.FIRST_COMPLETED)
+        try:
+            await asyncio.wait({fut, task}, return_when=asyncio.FIRST_COMPLETED)
+        except asyncio.CancelledError:
+            if self.interrupted is not None:
+                raise self.interrupted from None  # the test fails with the timeout's own report
+            raise
         if fut.done():
             return fut.result()
         fut.cancel()
@@ -355,6 +423,7 @@ class Bench:
     async def _at_next_tick(self, action: Callable[[int], Any], label: str) -> Any:
         fut: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
         self._requests.append((action, fut))
+        self._gate_open.set()
         return await self._outcome(fut, label)
 
     @contextlib.asynccontextmanager
@@ -468,6 +537,8 @@ class Bench:
 
     async def finish(self) -> RunResult:
         """Wait for the run's own end (its duration, or the flight code's exit); the result."""
+        self._finishing = True
+        self._gate_open.set()
         await asyncio.wait({self._require_task()})
         return await self._closed()
 
@@ -486,6 +557,11 @@ class Bench:
     async def _closed(self) -> RunResult:
         if self._stall_handle is not None:
             self._stall_handle.cancel()
+        if self._test_task is not None:
+            loop = asyncio.get_running_loop()
+            if loop.get_exception_handler() == self._loop_exception:
+                loop.set_exception_handler(self._prev_handler)
+            self._test_task = None
         if self._own_schedule and self.schedule is not None:
             await self.schedule.aclose()
         for w in self._watches:
@@ -653,7 +729,13 @@ class HilBench:
                 if failure is not None:
                     b.log_event("test failed", {"nodeid": self.nodeid, "report": failure[-4000:]})
                 b.torn_down = True
-                result = await b.stop()
+                b._gate_open.set()
+                try:
+                    log: Path | None = (await b.stop()).log_path
+                except BaseException as exc:  # noqa: BLE001 - the run ended by an interrupt: its log is final
+                    if exc is not b.interrupted:
+                        raise
+                    log = b.log_path
                 if b.stalls:
                     worst = max(s for _, s in b.stalls)
                     warnings.warn(HilBenchStallWarning(
@@ -661,10 +743,10 @@ class HilBench:
                         f"({len(b.stalls)} time(s)) while the bench ran, so the flight code's wall-clock IMU watchdog "
                         "may have fired: slow test code between awaits (do heavy work after bench.stop()), or an "
                         "overloaded machine"), stacklevel=1)
-                if result.log_path is not None and result.log_path.exists() and (failure is not None or self.keep_all):
+                if log is not None and log.exists() and (failure is not None or self.keep_all):
                     dest = self.keep_path(b)
                     dest.parent.mkdir(parents=True, exist_ok=True)
-                    shutil.move(result.log_path, dest)
+                    shutil.move(log, dest)
                     self.kept.append(dest)
             except BaseException as exc:  # noqa: BLE001 - stop the other benches first, then raise
                 errors.append(exc)

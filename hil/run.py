@@ -314,6 +314,9 @@ async def run_flight_async(
     except Exception as exc:  # a bench bug must still finalize the log
         end, message = EndReason.ERROR, f"bench error: {type(exc).__name__}: {exc}"
         logger.event(max(loop.t_ns, 0), "run", "bench error", {"error": repr(exc)})
+    except BaseException as exc:  # KeyboardInterrupt, a test framework's timeout: finalize, then raise
+        end, message = EndReason.INTERRUPTED, f"interrupted by {type(exc).__name__}: {exc}"
+        raise
     finally:
         hog.__exit__(None, None, None)
         runner.finish(max(loop.t_ns, 0))

@@ -101,7 +101,7 @@ PIDS = Path(os.environ["HIL_PLUGIN_TEST_PIDS"])
 
 
 def _note(name, bench):
-    (PIDS / name).write_text(f"{{bench.flight.pid}} {{os.getpid()}}")
+    (PIDS / name).write_text(f"{bench.flight.pid} {os.getpid()}")
 
 
 @pytest.mark.timeout(20)
@@ -133,6 +133,7 @@ def _children(pid: int) -> list[int]:
     return out
 
 
+@pytest.mark.timeout(400)
 def test_a_timed_out_test_never_hangs_its_teardown(pytester: pytest.Pytester, monkeypatch: pytest.MonkeyPatch,
                                                     tmp_path: Path) -> None:
     """pytest-timeout ends a hanging test (awaiting for ever, or blocking the event loop):
@@ -147,7 +148,7 @@ def test_a_timed_out_test_never_hangs_its_teardown(pytester: pytest.Pytester, mo
 
     # pytester's own timeout raises if the session hangs (what this test is about)
     result = pytester.runpytest_subprocess("--hil-keep-logs", str(keep), "-p", "no:cacheprovider",
-                                           "-o", "timeout_method=signal", timeout=240)
+                                           "-o", "timeout_method=signal", timeout=300)
 
     result.assert_outcomes(failed=2)
     result.stdout.fnmatch_lines(["*Timeout*"])
