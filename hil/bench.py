@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 from hil import clock
 from hil.devices import DeviceSet, LatencySample
-from hil.vtime.scheduler import VirtualClock
+from hil.vtime.scheduler import ShimLost, VirtualClock
 
 
 class Mode(enum.Enum):
@@ -163,7 +163,12 @@ class TickLoop:
             vc = self.vclock
             if await vc.wait_attached(self.attach_timeout_s, self._alive):
                 self.stats.clock = Clock.VIRTUAL
-                return await self._boot_virtual(vc)
+                try:
+                    return await self._boot_virtual(vc)
+                except ShimLost as lost:
+                    # boot is still free to change clocks: go on on the host's, loudly
+                    self._fall_back(str(lost))
+                    return await self._boot_wall(start_t_ns=self.t_ns)
             if self.flight_exited.is_set():
                 raise BootError("the flight code exited during boot; not configured: "
                                 + ", ".join(self.devices.unconfigured()))
@@ -184,19 +189,21 @@ class TickLoop:
     def _missing(self) -> str:
         return "; ".join(f"{name}: {why}" for name, why in self.devices.unconfigured().items())
 
-    async def _boot_wall(self) -> None:
+    async def _boot_wall(self, start_t_ns: int | None = None) -> None:
+        """Boot paced by the wall clock, from ``start_t_ns`` (default: -boot_timeout_s)."""
         start = clock.monotonic_ns()
         boot_ns = int(self.boot_timeout_s * 1e9)
+        t0 = -boot_ns if start_t_ns is None else max(start_t_ns, -boot_ns)
         while True:
             elapsed = clock.monotonic_ns() - start
-            self.t_ns = min(-1, -boot_ns + elapsed)
+            self.t_ns = min(-1, t0 + elapsed)
             self.devices.advance_boot(self.t_ns)
             missing = self.devices.unconfigured()
             if not missing:
                 return
             if self.flight_exited.is_set():
                 raise BootError("the flight code exited during boot; not configured: " + ", ".join(missing))
-            if elapsed > boot_ns:
+            if t0 + elapsed >= 0:
                 raise BootError(f"not configured within {self.boot_timeout_s:g} s: {self._missing()}")
             await asyncio.sleep(0.001)
 

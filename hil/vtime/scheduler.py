@@ -45,6 +45,21 @@ class ScheduledPort(Protocol):
     def read_available(self) -> bool: ...
 
 
+class ShimLost(RuntimeError):
+    """The flight-code process no longer has the clock shim mapped: it exec'd a program
+    without it (a wrapper that clears LD_PRELOAD, a set-user-ID helper). Its clocks are the
+    host's from then on and it will never report idle, so virtual time cannot go on."""
+
+
+def shim_mapped(pid: int, library: str) -> bool | None:
+    """Whether process ``pid`` has ``library`` mapped (None if it is gone)."""
+    try:
+        with open(f"/proc/{pid}/maps", encoding="utf-8", errors="replace") as f:
+            return any(library in line for line in f)
+    except OSError:
+        return None
+
+
 @dataclass(frozen=True)
 class Stall:
     """What the flight code was doing when the bench had waited long for it (wall time)."""
@@ -82,6 +97,8 @@ class VirtualClock:
         self._cpu_last = 0
         self.stall_warn_s = stall_warn_s
         self.on_stall = on_stall
+        #: the shim's path: checked in /proc/<pid>/maps when the flight code stalls
+        self.library: str | None = None
         self.stalls = 0
         self._loop = asyncio.get_running_loop()
         self._loop.add_reader(ctl.notify_fd, self._on_notify)
@@ -275,9 +292,19 @@ class VirtualClock:
                     handle.cancel()
             if not reported and loop.time() >= stall_at:
                 reported = True
+                self._check_shim()
                 self.stalls += 1
                 if self.on_stall is not None:
                     self.on_stall(Stall(self.stall_warn_s, tuple(self.ctl.threads())))
+
+    def _check_shim(self) -> None:
+        """Raise :class:`ShimLost` if the flight code exec'd itself out of the shim."""
+        if self.library is None or self.pid is None:
+            return
+        if shim_mapped(self.pid, self.library) is False:
+            raise ShimLost(f"the flight code (pid {self.pid}) runs without the clock shim: it exec'd a program "
+                           "without LD_PRELOAD (a wrapper such as `env -u LD_PRELOAD` or `sudo`, or a "
+                           "set-user-ID helper)")
 
     def close(self) -> None:
         if not self._closed:

@@ -58,6 +58,7 @@ class VirtualTime:
         self.library = library
         self.clock = vclock
         self.env = ctl.env(library)
+        vclock.library = str(library)
 
     @classmethod
     def open(

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from hil.bench import Mode
-from hil.rig import load_rig
+from hil.rig import Rig, load_rig
 from hil.run import RunResult, run_flight_async
 from hil.scenario import load_scenario
 
@@ -26,8 +26,8 @@ def explain(result: RunResult) -> str:
 def fly(tmp_path: Path):
     """``await fly(scenario, **kwargs)`` -> RunResult, recorded into tmp_path."""
 
-    async def _fly(scenario: str, *, rig: str | None = None, **kwargs) -> RunResult:
-        rig_obj = load_rig(rig)
+    async def _fly(scenario: str, *, rig: str | Rig | None = None, **kwargs) -> RunResult:
+        rig_obj = rig if isinstance(rig, Rig) else load_rig(rig)
         source = rig_obj.scenario_path(scenario)
         kwargs.setdefault("mode", Mode.LOCKSTEP)
         kwargs.setdefault("out_dir", tmp_path)

@@ -94,3 +94,41 @@ def test_unknown_budget_is_refused() -> None:
 
     with pytest.raises(ConfigError, match="unknown budget"):
         _runner_with({"latency_p42_us_max": 1.0})
+
+
+# -- realtime: held or not, from the pacer's lateness ------------------------------------------------------
+def test_realtime_is_held_when_lateness_stays_within_a_tick() -> None:
+    from hil.timing import realtime_verdict
+
+    rng = np.random.default_rng(3)
+    late_us = np.abs(rng.normal(0, 150, 8000))
+    late_us[::1000] = 2_900.0  # this machine's rare scheduling gaps (limits.md): still held
+    v = realtime_verdict(late_us)
+    assert v is not None and v.held, v.text
+    assert v.ticks == 8000 and v.late_ticks >= 8
+    assert v.text.startswith("realtime held")
+
+
+@pytest.mark.parametrize("what", ["behind for good", "one long stall"])
+def test_realtime_not_held_says_so(what: str) -> None:
+    from hil.timing import REALTIME_MAX_LATE_US, realtime_verdict
+
+    late_us = np.full(8000, 100.0)
+    if what == "behind for good":  # measured under load: samples 0.9 s late, RTF still about 1
+        late_us[4000:] = np.linspace(0, 900_000, 4000)
+    else:
+        late_us[5000] = REALTIME_MAX_LATE_US + 1.0
+    v = realtime_verdict(late_us)
+    assert v is not None and not v.held
+    assert v.text.startswith("realtime NOT held") and "not those of a 400 Hz loop" in v.text
+
+
+def test_lockstep_has_no_realtime_verdict_and_scaled_compute() -> None:
+    from hil.timing import realtime_verdict, scaled_compute_us
+
+    assert realtime_verdict(np.full(100, -1.0)) is None  # lockstep samples carry -1
+    np.testing.assert_array_equal(scaled_compute_us(np.array([100.0, -1.0, 250.0]), 4.0), [400.0, 1000.0])
+    rep = analyze_arrays(np.full(10, 0.0), np.arange(10) * PERIOD_NS, lateness_us=np.full(10, -1.0),
+                         compute_us=scaled_compute_us(np.full(10, 50.0), 2.0), compute_source="cpu")
+    assert rep.realtime is None and rep.lateness_us is None
+    assert rep.compute_us.p99 == 100.0 and rep.compute_source == "cpu"
