@@ -27,6 +27,9 @@ from hil import clock
 from hil.vtime.control import ControlBlock, ThreadView, asleep_in_kernel, pid_alive
 
 POLLIN, POLLPRI, POLLOUT = select.POLLIN, select.POLLPRI, select.POLLOUT
+#: re-check pauses (wall s) while a futex waiter is on its way to sleep
+SETTLE_FIRST_S = 0.0001
+SETTLE_MAX_S = 0.005
 
 
 class ScheduledPort(Protocol):
@@ -104,6 +107,9 @@ class VirtualClock:
         self._loop.add_reader(ctl.notify_fd, self._on_notify)
         self._waiter: asyncio.Future[None] | None = None
         self._closed = False
+        #: check_idle found a thread that published a futex wait but is not asleep in the
+        #: kernel yet: it sends no further notification when it gets there, so re-check soon
+        self._settling = False
 
     # -- clock ------------------------------------------------------------------------------------
     def start(self, t_ns: int) -> None:
@@ -222,6 +228,7 @@ class VirtualClock:
 
     def check_idle(self) -> bool:
         """One exact check (see the module docstring); never waits."""
+        self._settling = False
         threads = self.ctl.threads()
         mine = [t for t in threads if t.pid == self.pid]
         if not mine:
@@ -244,7 +251,8 @@ class VirtualClock:
                 return False
             if t.futex:
                 if t.tid < 0 or not asleep_in_kernel(t.pid, t.tid):
-                    return False  # another thread just woke it (or it is about to sleep)
+                    self._settling = True  # another thread just woke it, or it is about to sleep
+                    return False
                 continue
             if t.keys is None:  # an epoll set: only a check made after our last write counts
                 if t.seen_epoch != epoch:
@@ -274,6 +282,7 @@ class VirtualClock:
         loop = self._loop
         stall_at: float | None = None
         reported = False
+        settle_s = SETTLE_FIRST_S
         while True:
             if not running():
                 return False
@@ -284,12 +293,18 @@ class VirtualClock:
             waiter = loop.create_future()
             self._waiter = waiter
             handle = None if reported else loop.call_at(stall_at, _resolve, waiter)
+            # a thread between its futex-wait notification and its sleep: look again after a
+            # short, growing pause (the only wait here that is not an event)
+            recheck = loop.call_later(settle_s, _resolve, waiter) if self._settling else None
+            settle_s = min(settle_s * 2, SETTLE_MAX_S) if self._settling else SETTLE_FIRST_S
             try:
                 await waiter
             finally:
                 self._waiter = None
                 if handle is not None:
                     handle.cancel()
+                if recheck is not None:
+                    recheck.cancel()
             if not reported and loop.time() >= stall_at:
                 reported = True
                 self._check_shim()
