@@ -21,6 +21,7 @@ from typing import Annotated, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 app = typer.Typer(
@@ -34,7 +35,8 @@ err_console = Console(stderr=True)
 
 
 def _fail(message: str, code: int = 2) -> None:
-    err_console.print(f"[bold red]error:[/] {message}")
+    # escaped: messages quote file syntax such as "[[faults]]", which is not markup
+    err_console.print(f"[bold red]error:[/] {escape(message)}", soft_wrap=True)
     raise typer.Exit(code)
 
 
@@ -54,15 +56,18 @@ def run(
     """Fly the flight code against the emulated vehicle and write one MCAP log."""
     from hil.bench import Mode
     from hil.config import ConfigError
+    from hil.progress import PlainProgress
     from hil.rig import load_rig
     from hil.run import run_flight_async
     from hil.scenario import load_scenario
+    from hil.scenario_runner import ScenarioRunner
     from hil.summary import print_summary
 
     try:
         rig_obj = load_rig(rig)
         source = rig_obj.scenario_path(scenario)
         scenario_obj = load_scenario(source)
+        ScenarioRunner(scenario_obj, rig_obj, source)  # faults and budgets against the rig, before anything starts
         run_mode = Mode(mode)
     except ConfigError as exc:
         _fail(str(exc))
@@ -79,15 +84,26 @@ def run(
         TextColumn("{task.fields[phase]}"),
         TimeElapsedColumn(),
         console=console,
-        disable=quiet,
+        disable=quiet or not console.is_terminal,
         transient=True,
     )
+    # Not a terminal (CI log, pipe): plain progress lines instead of the bar.
+    plain: PlainProgress | None = None
 
     async def main() -> object:
         from hil import clock
 
-        task = progress.add_task(f"{rig_obj.name}/{scenario_obj.name}", total=1.0, sim="", rtf="-", phase="boot")
+        nonlocal plain
+        label = f"{rig_obj.name}/{scenario_obj.name}"
+        task = progress.add_task(label, total=1.0, sim="", rtf="-", phase="boot")
         start = {"wall": 0}
+        if not quiet and not console.is_terminal:
+            plain = PlainProgress(
+                label,
+                lambda line: console.print(line, markup=False, highlight=False, soft_wrap=True),
+                lambda: (clock.monotonic_ns() - start["wall"]) / 1e9 if start["wall"] else 0.0,
+            )
+            plain.write(f"{label}: starting the flight code and booting the devices")
 
         def on_progress(sim_s: float, total_s: float, phase: str) -> None:
             now = clock.monotonic_ns()
@@ -101,6 +117,8 @@ def run(
                 rtf=f"{sim_s / wall:5.1f}x" if sim_s > 0.5 else "-",
                 phase=phase,
             )
+            if plain is not None:
+                plain(sim_s, total_s, phase)
 
         current = asyncio.current_task()
         loop = asyncio.get_running_loop()
@@ -125,8 +143,11 @@ def run(
             loop.remove_signal_handler(signal.SIGINT)
             loop.remove_signal_handler(signal.SIGTERM)
 
-    with progress:
-        result = asyncio.run(main())
+    try:
+        with progress:
+            result = asyncio.run(main())
+    except ConfigError as exc:  # refused before anything was created (e.g. a fault after the end)
+        _fail(str(exc))
     print_summary(console, result, rig_obj, scenario_obj)  # type: ignore[arg-type]
     raise typer.Exit(0 if result.passed else 1)  # type: ignore[attr-defined]
 

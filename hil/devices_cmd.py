@@ -12,7 +12,6 @@ import contextlib
 import os
 import shutil
 import signal
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -21,6 +20,7 @@ from rich.console import Console
 from hil.bench import Mode, TickLoop
 from hil.devices import DeviceSet
 from hil.rig import Rig
+from hil.rundir import make_run_dir
 from hil.scenario import Scenario
 from hil.scenario_runner import ScenarioRunner
 from hil.transport.pty import PtyPort
@@ -50,7 +50,7 @@ async def serve_devices(
 ) -> dict[str, dict[str, int]]:
     """Serve until Ctrl-C or ``duration_s``; returns the device counters."""
     own_dir = run_dir is None
-    run_dir = run_dir or Path(tempfile.mkdtemp(prefix=f"hil-devices-{rig.name}-"))
+    run_dir = run_dir or make_run_dir(f"hil-devices-{rig.name}-")
     os.chmod(run_dir, 0o700)
     dev_dir = run_dir / "dev"
     dev_dir.mkdir(mode=0o700, exist_ok=True)

@@ -14,10 +14,8 @@ import asyncio
 import contextlib
 import json
 import math
-import os
 import shutil
 import sys
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,6 +32,7 @@ from hil.devices import DeviceSet
 from hil.flightproc import FlightProcess, expand_command
 from hil.record.process import ProcessRecorder
 from hil.rig import Rig, load_rig
+from hil.rundir import make_run_dir
 from hil.runlog import RunLogger
 from hil.scenario import Scenario, load_scenario
 from hil.scenario_runner import ScenarioRunner
@@ -187,7 +186,8 @@ async def run_flight_async(
     stress_adc_delay_us: float = 0.0,
     virtual_time: bool | None = None,
 ) -> RunResult:
-    """Run one flight (see module docstring). Never raises for run-time failures.
+    """Run one flight (see module docstring). Never raises for run-time failures; a scenario
+    the rig refuses raises :class:`ConfigError` before anything is created.
 
     ``virtual_time``: lockstep on sim time through the clock shim (None: the rig's
     ``[flight] virtual_time``, on by default); False runs lockstep on the host clock."""
@@ -196,12 +196,13 @@ async def run_flight_async(
     sys.setswitchinterval(SWITCH_INTERVAL_S)
     seed = scenario.scenario.seed if seed is None else seed
     duration_ns = scenario.duration_ns if duration_s is None else int(duration_s * 1e9)
-    run_dir = Path(tempfile.mkdtemp(prefix=f"hil-{rig.name}-"))
-    os.chmod(run_dir, 0o700)
+    # The scenario is checked against the rig (faults, budgets) before anything is created:
+    # a refused scenario raises ConfigError and leaves nothing behind.
+    runner = ScenarioRunner(scenario, rig, scenario_source)
+    run_dir = make_run_dir(f"hil-{rig.name}-")
     dev_dir = run_dir / "dev"
     dev_dir.mkdir(mode=0o700)
 
-    runner = ScenarioRunner(scenario, rig, scenario_source)
     devices = DeviceSet(rig, seed=seed, stick_script=runner.stick_script())
     devices.adc_reply_delay_ns = int(stress_adc_delay_us * 1000)
     runner.bind(devices)
