@@ -37,6 +37,7 @@ from hil.runlog import RunLogger
 from hil.scenario import Scenario, load_scenario
 from hil.scenario_runner import ScenarioRunner
 from hil.stress import CpuHog
+from hil.timing import compute_samples_us
 from hil.trace import Trace
 from hil.transport.pty import PtyPort
 from hil.vtime.preload import Fallback
@@ -147,14 +148,14 @@ def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None, cp
         jitter = np.abs(period - tick_ns / 1e3)
         out |= {"period_p50_us": float(np.percentile(period, 50)), "period_jitter_p99_us": float(np.percentile(jitter, 99))}
     if virtual:
-        out |= _percentiles("fc_compute", np.asarray(st.fc_cpu_ns) * cpu_scale / 1e3)
         out["boot_sim_s"] = st.boot_sim_ns / 1e9
-    elif trace is not None:
-        try:
-            _, compute = trace.signal("tm.compute_last_us")
-        except KeyError:
-            compute = np.zeros(0)
-        out |= _percentiles("fc_compute", compute[np.isfinite(compute)])
+    telemetry_compute: np.ndarray | None = None
+    if trace is not None:
+        with contextlib.suppress(KeyError):
+            telemetry_compute = trace.signal("tm.compute_last_us")[1]
+    # one rule with `hil timing` (hil/timing.py)
+    fc_cpu_us = np.asarray(st.fc_cpu_ns) / 1e3 if virtual else None
+    out |= _percentiles("fc_compute", compute_samples_us(fc_cpu_us, telemetry_compute, cpu_scale))
     if st.lateness_ns:
         out |= _percentiles("lateness", np.asarray(st.lateness_ns) / 1e3)
     return out

@@ -12,7 +12,10 @@ Figures (all microseconds unless noted):
 * **jitter**: period minus its nominal value.
 * **misses**: samples whose latency exceeded the budget, plus samples with no command at
   all (barrier timeouts).
-* **compute**: the flight code's own per-loop compute time as it reports in telemetry.
+* **compute**: the flight code's compute per loop (:func:`compute_samples_us`, the one rule
+  shared by the run summary and ``hil timing``): with virtual time, the bench's per-sample
+  measurement of the flight code's CPU time scaled to the target by the rig's
+  ``cpu_scale``; otherwise the flight code's own figure from its telemetry.
 """
 
 from __future__ import annotations
@@ -49,6 +52,27 @@ class Stats:
             float(v.max()),
             float(v.mean()),
         )
+
+
+def compute_samples_us(
+    fc_cpu_us: np.ndarray | None, telemetry_compute_us: np.ndarray | None, cpu_scale: float = 1.0
+) -> np.ndarray:
+    """The flight code's compute per loop in us (target processor), from what a run has.
+
+    ``fc_cpu_us``: the bench's per-sample CPU measurement (virtual time), host us, negative
+    where not measured. ``telemetry_compute_us``: the flight code's own figures (50 Hz).
+    ``cpu_scale``: target time per host time. The per-sample measurement wins when it has
+    any sample: it covers every loop, telemetry only every eighth. Non-finite values go.
+    """
+    if fc_cpu_us is not None:
+        cpu = np.asarray(fc_cpu_us, dtype=float)
+        cpu = cpu[np.isfinite(cpu) & (cpu >= 0)]
+        if cpu.size:
+            return cpu * cpu_scale
+    if telemetry_compute_us is None:
+        return np.zeros(0)
+    tm = np.asarray(telemetry_compute_us, dtype=float)
+    return tm[np.isfinite(tm)]
 
 
 @dataclass(frozen=True)
@@ -97,15 +121,20 @@ def analyze_arrays(
 
 def analyze_log(log: Path, budget_us: float = NOMINAL_PERIOD_US) -> TimingReport:
     """The report of a run's MCAP (topics /hil/timing/tick and /fc/telemetry)."""
-    from hil.record import read_topic
+    from hil.record import read_metadata, read_topic
 
     tick = read_topic(log, "/hil/timing/tick")
     tm = read_topic(log, "/fc/telemetry")
-    compute = None
+    telemetry = None
     for key in ("compute_last_us", "compute_us", "loop_compute_us"):
         if key in tm and tm[key].size:
-            compute = tm[key]
+            telemetry = tm[key]
             break
+    try:
+        cpu_scale = float(read_metadata(log).get("verdict", {}).get("cpu_scale", 1.0))
+    except ValueError:
+        cpu_scale = 1.0
+    compute = compute_samples_us(tick.get("fc_cpu_us") if tick else None, telemetry, cpu_scale)
     if not tick or "latency_us" not in tick:
         return analyze_arrays(np.zeros(0), np.zeros(0), compute_us=compute, budget_us=budget_us)
     return analyze_arrays(tick["latency_us"], tick["esc_arrival_host_ns"], compute_us=compute, budget_us=budget_us)
