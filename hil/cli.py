@@ -25,7 +25,9 @@ from rich.markup import escape
 from rich.table import Table
 
 app = typer.Typer(
-    help="Hardware-in-the-loop bench for the Wang/Ma/Sun quad-rotor MAV.",
+    help="Hardware-in-the-loop bench for the Wang/Ma/Sun quad-rotor MAV. "
+    "Exit status of every command: 0 success, 1 a verdict failed (criteria, timing, verify), "
+    "2 bad input (an 'error:' line says which file, key or path and why); each command's --help says more.",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
@@ -53,7 +55,12 @@ def run(
     stress_cpu: Annotated[int, typer.Option(help="Timing stress: CPU-bound processes beside the flight code.")] = 0,
     stress_adc_delay_us: Annotated[float, typer.Option(help="Timing stress: hold every ADC bridge reply back (wall us).")] = 0.0,
 ) -> None:
-    """Fly the flight code against the emulated vehicle and write one MCAP log."""
+    """Fly the flight code against the emulated vehicle and write one MCAP log.
+
+    Exit status: 0 the run completed and every criterion passed; 1 a criterion failed or the
+    run did not complete (flight code exited, boot failed, interrupted); 2 bad input (rig,
+    scenario, option, a fault the rig refuses): nothing was started.
+    """
     from hil.bench import Mode
     from hil.config import ConfigError
     from hil.progress import PlainProgress
@@ -163,6 +170,9 @@ def devices(
 
     Point any client (the flight code started by hand, miniterm, an Xbus tool) at the
     printed paths. The plant flies on the ESC commands the Maestro receives. Ctrl-C stops.
+
+    Exit status: 0 stopped (Ctrl-C or --duration); 2 bad input (rig, scenario, --attach, a
+    serial device missing, busy or not permitted): nothing was started.
     """
     from hil.config import ConfigError
     from hil.devices_cmd import serve_devices
@@ -182,7 +192,10 @@ def recover(
     log: Annotated[Path, typer.Argument(help="A killed run's .mcap.part (or .mcap) file.")],
     out: Annotated[Path | None, typer.Option(help="Output file (default: LOG without .part, or LOG.recovered.mcap).")] = None,
 ) -> None:
-    """Salvage a killed run's MCAP: every complete chunk, metadata and attachments."""
+    """Salvage a killed run's MCAP: every complete chunk, metadata and attachments.
+
+    Exit status: 0 the file was written (it says how many messages were kept); 2 no such file.
+    """
     from hil.record import recover as do_recover
 
     if not log.exists():
@@ -199,7 +212,10 @@ def report(
     log: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
     out: Annotated[Path | None, typer.Option(help="Directory for the PNG plots (default: next to the log).")] = None,
 ) -> None:
-    """Plot a run: attitude, altitude, motors and timing, as PNG files."""
+    """Plot a run: attitude, altitude, motors and timing, as PNG files.
+
+    Exit status: 0 the plots were written (their paths are printed); 2 no such file.
+    """
     from hil.report import make_report
 
     if not log.exists():
@@ -214,7 +230,11 @@ def timing(
     budget_us: Annotated[float, typer.Option(help="Response-time budget per sample (us).")] = 2500.0,
     png: Annotated[Path | None, typer.Option(help="Histogram PNG (default: LOG_timing.png next to the log).")] = None,
 ) -> None:
-    """Timing of the 400 Hz loop from a log: period, response latency, jitter, misses, compute."""
+    """Timing of the 400 Hz loop from a log: period, response latency, jitter, misses, compute.
+
+    Exit status: 0 every sample answered within the budget; 1 a sample over the budget or
+    without an ESC command; 2 no such file.
+    """
     from hil.timing import analyze_log, plot_latency
 
     if not log.exists():
@@ -246,7 +266,10 @@ def perf(
     runs: Annotated[int, typer.Option(help="Lockstep runs to take the median of.")] = 3,
     seconds: Annotated[float, typer.Option(help="Sim seconds per run.")] = 10.0,
 ) -> None:
-    """Benchmarks on this machine: plant tick, recording, lockstep RTF, realtime timing."""
+    """Benchmarks on this machine: plant tick, recording, lockstep RTF, realtime timing.
+
+    Exit status: 0 the table was printed (the figures are information, not a verdict).
+    """
     from hil.perf import measure
 
     rep = measure(lockstep_runs=runs, lockstep_s=seconds, realtime_s=seconds)
@@ -268,7 +291,11 @@ def replay(
     verify_: Annotated[bool, typer.Option("--verify", help="Re-run the recorded run from the log's attachments and compare the control wires byte for byte.")] = False,
     out: Annotated[Path, typer.Option(help="With --verify: where the re-run's log goes.")] = Path("logs/verify"),
 ) -> None:
-    """Play a recorded session's device bytes back on ptys, or --verify it by re-running it."""
+    """Play a recorded session's device bytes back on ptys, or --verify it by re-running it.
+
+    Exit status: 0 played back (or --verify: the re-run matched); 1 --verify found a
+    divergence; 2 no such file, or a log that cannot be replayed.
+    """
     from hil.record import TornRecordingError
     from hil.replay import ReplayError, verify
     from hil.replay import replay as do_replay
@@ -296,7 +323,11 @@ def campaign(
     out: Annotated[Path | None, typer.Option(help="Campaign output directory (default: the file's).")] = None,
     keep_logs: Annotated[str | None, typer.Option(help="all, failed or none (default: the file's).")] = None,
 ) -> None:
-    """Many runs (scenarios x seeds x sweeps), each in its own process, summarized."""
+    """Many runs (scenarios x seeds x sweeps), each in its own process, summarized.
+
+    Exit status: 0 every run passed; 1 a run failed; 2 bad campaign file or option;
+    130 interrupted (Ctrl-C; the summary covers the runs that finished).
+    """
     from hil.campaign import KeepLogs, load_campaign, run_campaign
     from hil.config import ConfigError
 
@@ -317,7 +348,10 @@ def campaign(
 def faults(
     layer: Annotated[str | None, typer.Option(help="Only this layer (plant, sensor, wire, device, process...).")] = None,
 ) -> None:
-    """The fault catalogue: every kind with its parameters, units and defaults."""
+    """The fault catalogue: every kind with its parameters, units and defaults.
+
+    Exit status: 0.
+    """
     from hil.faults import print_catalogue
 
     print_catalogue(console, layer)
