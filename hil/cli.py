@@ -318,7 +318,7 @@ def replay(
 def campaign(
     file: Annotated[Path, typer.Argument(help="A campaign TOML (rigs/campaigns/*.toml).")],
     workers: Annotated[int | None, typer.Option(help="Parallel runs (default: one per two cores).")] = None,
-    scheduler: Annotated[str | None, typer.Option(help="A Dask scheduler address, e.g. tcp://host:8786.")] = None,
+    scheduler: Annotated[str | None, typer.Option(help="A Dask scheduler address, e.g. tls://host:8786 (credentials from the Dask config; docs/replay-and-campaigns.md).")] = None,
     executor: Annotated[str, typer.Option(help="auto (Dask if installed), dask or process.")] = "auto",
     out: Annotated[Path | None, typer.Option(help="Campaign output directory (default: the file's).")] = None,
     keep_logs: Annotated[str | None, typer.Option(help="all, failed or none (default: the file's).")] = None,
