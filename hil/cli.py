@@ -36,6 +36,12 @@ console = Console()
 err_console = Console(stderr=True)
 
 
+def parse_attach_flags(flags: list[str]) -> dict[str, str]:
+    from hil.attach import parse_attach_flags as parse
+
+    return parse(flags)
+
+
 def _fail(message: str, code: int = 2) -> None:
     # escaped: messages quote file syntax such as "[[faults]]", which is not markup
     err_console.print(f"[bold red]error:[/] {escape(message)}", soft_wrap=True)
@@ -54,6 +60,7 @@ def run(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
     stress_cpu: Annotated[int, typer.Option(help="Timing stress: CPU-bound processes beside the flight code.")] = 0,
     stress_adc_delay_us: Annotated[float, typer.Option(help="Timing stress: hold every ADC bridge reply back (wall us).")] = 0.0,
+    attach: Annotated[list[str] | None, typer.Option("--attach", help="PORT=DEVICE: this port on a real serial device or URL (/dev/ttyUSB0, socket://host:port, rfc2217://host:port); repeatable; realtime only.")] = None,
 ) -> None:
     """Fly the flight code against the emulated vehicle and write one MCAP log.
 
@@ -80,6 +87,14 @@ def run(
         _fail(str(exc))
     except ValueError:
         _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
+    from hil.attach import refuse_lockstep, resolve_attachments
+    from hil.run import PORTS
+
+    try:
+        attach_map = parse_attach_flags(attach or [])
+        refuse_lockstep(resolve_attachments(rig_obj.ports, attach_map, PORTS, command="run"), run_mode.value)
+    except ConfigError as exc:
+        _fail(str(exc))
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -110,7 +125,6 @@ def run(
                 lambda line: console.print(line, markup=False, highlight=False, soft_wrap=True),
                 lambda: (clock.monotonic_ns() - start["wall"]) / 1e9 if start["wall"] else 0.0,
             )
-            plain.write(f"{label}: starting the flight code and booting the devices")
 
         def on_progress(sim_s: float, total_s: float, phase: str) -> None:
             now = clock.monotonic_ns()
@@ -145,6 +159,7 @@ def run(
                 scenario_source=source,
                 stress_cpu=stress_cpu,
                 stress_adc_delay_us=stress_adc_delay_us,
+                attach=attach_map,
             )
         finally:
             loop.remove_signal_handler(signal.SIGINT)
@@ -165,11 +180,14 @@ def devices(
     scenario: Annotated[str | None, typer.Option("--scenario", "-s", help="Scenario whose sticks drive the RC (default: the rig's).")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the device models.")] = 1,
     duration: Annotated[float | None, typer.Option(help="Stop after this many seconds (default: until Ctrl-C).")] = None,
+    attach: Annotated[list[str] | None, typer.Option("--attach", help="PORT=DEVICE: serve this port on a real serial device or URL instead of a pty (/dev/ttyUSB0, socket://host:port, rfc2217://host:port); repeatable.")] = None,
 ) -> None:
     """Bring the emulated devices up on ptys and print their paths, streaming in real time.
 
     Point any client (the flight code started by hand, miniterm, an Xbus tool) at the
     printed paths. The plant flies on the ESC commands the Maestro receives. Ctrl-C stops.
+    With --attach (or the rig's [ports] tables) a port is served on a real serial device
+    instead, for a flight-controller board wired through a USB-serial adapter.
 
     Exit status: 0 stopped (Ctrl-C or --duration); 2 bad input (rig, scenario, --attach, a
     serial device missing, busy or not permitted): nothing was started.
@@ -182,9 +200,11 @@ def devices(
     try:
         rig_obj = load_rig(rig)
         scenario_obj = load_scenario(rig_obj.scenario_path(scenario))
-    except ConfigError as exc:
+        attach_map = parse_attach_flags(attach or [])
+        asyncio.run(serve_devices(rig_obj, scenario_obj, seed=seed, duration_s=duration, console=console,
+                                  attach=attach_map))
+    except ConfigError as exc:  # bad files or flags, or a serial device missing/busy/denied: nothing started
         _fail(str(exc))
-    asyncio.run(serve_devices(rig_obj, scenario_obj, seed=seed, duration_s=duration, console=console))
 
 
 @app.command()

@@ -177,6 +177,7 @@ class SerialPort(Port):
         self.target = target
         self.framing = framing
         self.notes: list[str] = []
+        self._client_path: str | None = None
         self._ser = open_serial(name, target, framing)
         self._fd: int | None = None
         if not target.startswith("rfc2217://"):
@@ -201,6 +202,15 @@ class SerialPort(Port):
     @property
     def path(self) -> str:
         return self.target
+
+    @property
+    def client_path(self) -> str | None:
+        """The far end a bench-started client opens (rig ``client_path``), None if not given."""
+        return self._client_path
+
+    @client_path.setter
+    def client_path(self, value: str | None) -> None:
+        self._client_path = value
 
     async def start(self) -> None:
         self._loop = asyncio.get_running_loop()
