@@ -159,6 +159,7 @@ def open_serial(port: str, target: str, framing: Framing) -> serial.SerialBase:
             ser.exclusive = True
         if target.startswith("rfc2217://"):
             ser.timeout = 0.05  # its reader thread's poll
+            ser.write_timeout = None  # pyserial's RFC 2217 client refuses any write timeout
         ser.open()
     except (serial.SerialException, OSError, ValueError) as exc:
         raise PortOpenError(_describe_open_error(port, target, exc)) from exc

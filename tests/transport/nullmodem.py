@@ -95,3 +95,103 @@ async def loopback_server() -> AsyncIterator[LoopbackServer]:
         yield server
     finally:
         server.close()
+
+
+class Rfc2217Server:
+    """A one-connection RFC 2217 (Telnet COM-port) server in front of a serial device, built
+    on pyserial's own :class:`serial.rfc2217.PortManager` (the twin of ser2net in telnet
+    mode): ``url`` is what the bench opens; ``device`` is the serial line behind it."""
+
+    def __init__(self, device: str) -> None:
+        import threading
+
+        import serial
+
+        self.listener = socket.create_server(("127.0.0.1", 0))
+        self.url = f"rfc2217://127.0.0.1:{self.listener.getsockname()[1]}"
+        class PtyLine(serial.Serial):
+            """A pty has no modem lines (TIOCMGET/TIOCMBIS fail): report them idle, ignore sets."""
+
+            cts = dsr = ri = cd = False  # type: ignore[assignment]
+
+            def _update_rts_state(self) -> None:
+                pass
+
+            def _update_dtr_state(self) -> None:
+                pass
+
+            def _update_break_state(self) -> None:
+                pass
+
+        self.serial = PtyLine(device, 115200, timeout=0.05)
+        self._stop = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self._sock: socket.socket | None = None
+        self._lock = threading.Lock()
+        accept = threading.Thread(target=self._serve, name="rfc2217 server", daemon=True)
+        accept.start()
+        self._threads.append(accept)
+
+    def write(self, data: bytes) -> None:  # PortManager's connection
+        with self._lock:
+            if self._sock is not None:
+                self._sock.sendall(data)
+
+    def _serve(self) -> None:
+        import threading
+
+        from serial.rfc2217 import PortManager
+
+        self.listener.settimeout(0.1)
+        while not self._stop.is_set():
+            try:
+                sock, _ = self.listener.accept()
+            except TimeoutError:
+                continue
+            break
+        else:
+            return
+        sock.settimeout(0.05)
+        self._sock = sock
+        manager = PortManager(self.serial, self)
+
+        def to_serial() -> None:
+            while not self._stop.is_set():
+                try:
+                    data = sock.recv(4096)
+                except TimeoutError:
+                    continue
+                except OSError:
+                    return
+                if not data:
+                    return
+                self.serial.write(b"".join(manager.filter(data)))
+
+        def to_network() -> None:
+            while not self._stop.is_set():
+                data = self.serial.read(self.serial.in_waiting or 1)
+                if data:
+                    self.write(b"".join(manager.escape(data)))
+
+        for target in (to_serial, to_network):
+            t = threading.Thread(target=target, daemon=True)
+            t.start()
+            self._threads.append(t)
+
+    def close(self) -> None:
+        self._stop.set()
+        for t in self._threads:
+            t.join(timeout=2.0)
+        if self._sock is not None:
+            self._sock.close()
+        self.listener.close()
+        self.serial.close()
+
+
+@asynccontextmanager
+async def rfc2217_server(device: str) -> AsyncIterator[Rfc2217Server]:
+    server = Rfc2217Server(device)
+    try:
+        yield server
+    finally:
+        await asyncio.to_thread(server.close)

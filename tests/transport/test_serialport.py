@@ -198,3 +198,27 @@ def test_ioctl_numbers_are_linux_serial() -> None:
 
 def test_pyserial_is_real() -> None:
     assert serial.__version__
+
+
+# -- rfc2217:// (no file descriptor: the reader-thread path) -------------------------------------
+def rfc2217_harness(tmp_path: Path):
+    from tests.transport.nullmodem import rfc2217_server
+
+    @asynccontextmanager
+    async def make() -> AsyncIterator[tuple[SerialPort, SerialClient]]:
+        async with null_modem(tmp_path) as (server_end, client_end), rfc2217_server(server_end) as server:
+            port = await asyncio.to_thread(SerialPort, "imu", server.url, FRAMING)
+            await port.start()
+            client = SerialClient(client_end)
+            try:
+                yield port, client
+            finally:
+                await client.close()
+                await asyncio.to_thread(port.close)
+
+    return make
+
+
+@pytest.mark.parametrize("check", conformance.SOCKET_CHECKS, ids=lambda f: f.__name__)
+async def test_serial_port_on_an_rfc2217_url(check, tmp_path: Path) -> None:
+    await check(rfc2217_harness(tmp_path))
