@@ -200,3 +200,32 @@ async def test_flight_code_flies_through_null_modems(tmp_path: Path) -> None:
     imu_tx = read_wire(result.log_path, "imu", "tx")
     assert b"\xfa\xff\x36" in imu_tx or b"\xfa\xff\x32" in imu_tx  # wire taps work on a real line
     assert read_wire(result.log_path, "esc", "rx")
+
+
+async def test_hil_devices_attach_as_printed(tmp_path: Path) -> None:
+    """`hil devices --attach imu=<device>` serves the IMU there and says so; exit status 0."""
+    async with null_modem(tmp_path, "imu") as (imu_bench, imu_client):
+        runs = tmp_path / "runs"
+        runs.mkdir()
+        env = dict(os.environ, TMPDIR=str(runs), COLUMNS="300")
+        proc = await asyncio.create_subprocess_exec(
+            sys.executable, "-m", "hil.cli", "devices", "--duration", "3", "--attach", f"imu={imu_bench}",
+            cwd=REPO, env=env, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE)
+        assert proc.stdout is not None
+        printed = b""
+        while b"  ground " not in printed:  # the port list is printed once the devices are up
+            line = await asyncio.wait_for(proc.stdout.readline(), 60)
+            assert line, printed
+            printed += line
+
+        def session() -> bytes:
+            with serial.Serial(imu_client, 115200, timeout=1.0) as ser:
+                ser.write(_xbus(0x30))  # GoToConfig
+                return ser.read_until(_xbus(0x31))
+
+        ack = await asyncio.to_thread(session)
+        out, err = await asyncio.wait_for(proc.communicate(), 60)
+    assert proc.returncode == 0, err.decode()
+    assert printed.splitlines()[1].decode() == (
+        f"  imu            {imu_bench}  (XSENS MTi (Xbus), attached, {load_rig(None).imu.baud_bps} baud 8N1)"), printed
+    assert ack.endswith(_xbus(0x31))
