@@ -267,7 +267,7 @@ def timing(
         ("response latency (us): IMU emitted -> ESC command", rep.latency_us),
         ("ESC command period (us)", rep.period_us),
         ("period jitter |T - 2500| (us)", rep.jitter_us),
-        ("flight code's own compute (us, telemetry)", rep.compute_us),
+        ("flight code compute (us; per-sample CPU x cpu_scale, else telemetry)", rep.compute_us),
     ):
         table.add_row(name, str(st.n), *(f"{v:.1f}" for v in (st.p50, st.p99, st.p999, st.max, st.mean)))
     console.print(table)
