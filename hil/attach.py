@@ -115,3 +115,22 @@ def open_attached(attachments: Mapping[str, PortAttachment], baud_of: Any) -> di
             port.close()
         raise
     return opened
+
+
+#: device events after which the device's own UART runs at the event's ``baud_bps``
+RATE_EVENTS = frozenset({"BaudChanged", "BusPirateUartRate"})
+
+
+def follow_device_rates(devices: Any, attached: Mapping[str, Any]) -> None:
+    """On a real line the bench owns the line settings: when an emulated device switches its
+    UART (Bus Pirate ``b`` menu, XSENS SetBaudrate + Reset), switch the attached port too, after
+    the bytes already written (the device's confirmation at the old rate)."""
+    if not attached:
+        return
+
+    def sink(port: str, event: Any) -> None:
+        if port in attached and type(event).__name__ in RATE_EVENTS:
+            attached[port].set_baud(int(event.baud_bps))
+
+    devices.event_sinks.append(sink)
+

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from rich.console import Console
 
-from hil.attach import open_attached, resolve_attachments
+from hil.attach import follow_device_rates, open_attached, resolve_attachments
 from hil.bench import Mode, TickLoop
 from hil.devices import DeviceSet
 from hil.rig import Rig
@@ -71,6 +71,7 @@ async def serve_devices(
     for port in ports.values():
         await port.start()
     devices.attach(dict(ports))
+    follow_device_rates(devices, attached)
 
     # Plain lines, never wrapped, so a path can be copied into a client's command line.
     console.print(f"{rig.name}: emulated devices in real time (Ctrl-C to stop)", highlight=False)

@@ -25,7 +25,7 @@ import numpy as np
 import tomli_w
 
 from hil import __version__, clock
-from hil.attach import open_attached, refuse_lockstep, resolve_attachments
+from hil.attach import follow_device_rates, open_attached, refuse_lockstep, resolve_attachments
 from hil.bench import BootError, Clock, EndReason, Mode, TickLoop
 from hil.config import ConfigError, load_toml
 from hil.criteria import CriterionResult, evaluate
@@ -221,6 +221,7 @@ async def run_flight_async(
     for port in ports.values():
         await port.start()
     devices.attach(dict(ports))
+    follow_device_rates(devices, attached)
 
     run_start_unix_ns = clock.wall_ns()
     recorder: ProcessRecorder | None = None

@@ -29,8 +29,9 @@ import errno
 import fcntl
 import os
 import re
+import termios
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -197,6 +198,7 @@ class SerialPort(Port):
         self._writer_registered = False
         self._closed = False  #: no more writes (closed, or the line failed)
         self._shut = False  #: close() ran
+        self._baud_after_drain: int | None = None  #: a rate switch waiting for the pending bytes
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
 
@@ -312,6 +314,36 @@ class SerialPort(Port):
         if (not self._pending or self._closed) and self._loop is not None and self._fd is not None:
             self._loop.remove_writer(self._fd)
             self._writer_registered = False
+            if self._baud_after_drain is not None:
+                self._apply_baud()
+
+    # -- the device changes its own rate -----------------------------------------------------
+    def set_baud(self, baud_bps: int) -> None:
+        """Switch the line to ``baud_bps`` once everything written so far has left (a device
+        confirms at the old rate, then switches: the Bus Pirate's ``b`` menu, XSENS
+        SetBaudrate + Reset). A raw ``socket://`` has no line rate: noted, nothing else."""
+        if self.target.startswith("socket://"):
+            self.notes.append(f"{self.name}: {self.target}: the device switched to {baud_bps} bit/s; "
+                              "a raw TCP serial server has no line rate to follow (set it on the server)")
+            return
+        self._baud_after_drain = baud_bps
+        if not self._pending:
+            self._apply_baud()
+
+    def _apply_baud(self) -> None:
+        baud, self._baud_after_drain = self._baud_after_drain, None
+        if baud is None or self._closed:
+            return
+        try:
+            if self._fd is not None:
+                termios.tcdrain(self._fd)  # the confirmation leaves at the old rate (a few ms)
+            self._ser.baudrate = baud  # rfc2217: SET-BAUDRATE to the server, in stream order
+        except (OSError, ValueError, serial.SerialException) as exc:
+            self.notes.append(f"{self.name}: {self.target}: cannot switch to {baud} bit/s: {exc}")
+            return
+        self.framing = replace(self.framing, baud_bps=baud)
+        self.line = LineSettings(baud, self.framing.bytesize, self.framing.parity, self.framing.stopbits)
+        self.stats.line_changes += 1
 
     def write_tracked(self, data: bytes) -> int:
         self.write(data)

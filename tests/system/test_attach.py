@@ -229,3 +229,46 @@ async def test_hil_devices_attach_as_printed(tmp_path: Path) -> None:
     assert printed.splitlines()[1].decode() == (
         f"  imu            {imu_bench}  (XSENS MTi (Xbus), attached, {load_rig(None).imu.baud_bps} baud 8N1)"), printed
     assert ack.endswith(_xbus(0x31))
+
+
+async def test_bus_pirate_b_menu_switches_the_real_line(tmp_path: Path) -> None:
+    """A host on a real line drives the Bus Pirate's b menu to 1 Mbit/s: the bench switches
+    the attached port after the confirmation, and the session goes on into binary mode."""
+    from tests.transport.test_serialport import _line_baud
+
+    rig = load_rig(None)
+    scenario = load_scenario(rig.scenario_path("hover"))
+    async with null_modem(tmp_path, "adc") as (adc_bench, adc_client):
+        ready = asyncio.Event()
+        server = asyncio.create_task(serve_devices(
+            rig, scenario, seed=1, duration_s=None, console=Console(file=io.StringIO()),
+            on_ready=lambda p: ready.set(), attach={"adc": adc_bench}))
+        try:
+            await asyncio.wait_for(ready.wait(), 30)
+
+            def host() -> tuple[bytes, int | None, bytes]:
+                with serial.Serial(adc_client, 115200, timeout=2.0) as ser:
+                    ser.write(b"\r")
+                    ser.read_until(b"HiZ>")
+                    ser.write(b"b\r")
+                    ser.read_until(b"(9)>")
+                    ser.write(b"10\r")
+                    ser.read_until(b"(34)>")
+                    ser.write(b"3\r")
+                    confirm = ser.read_until(b"Space to continue\r\n")
+                    ser.baudrate = 1_000_000  # a real host switches its adapter too
+                    ser.write(b" ")
+                    rest = ser.read_until(b"HiZ>")
+                    # the bench switched in the same loop callback that wrote the confirmation,
+                    # so by the time it answered the space the line is at the new rate
+                    line = _line_baud(adc_bench)
+                    ser.write(b"\x00" * 20)
+                    return confirm, line, rest + ser.read(5)
+
+            confirm, line, rest = await asyncio.to_thread(host)
+        finally:
+            server.cancel()
+            await asyncio.gather(server, return_exceptions=True)
+    assert confirm.endswith(b"3\r\nAdjust your terminal\r\nSpace to continue\r\n")
+    assert line == 1_000_000
+    assert rest == b"HiZ>BBIO1"

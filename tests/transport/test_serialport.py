@@ -222,3 +222,43 @@ def rfc2217_harness(tmp_path: Path):
 @pytest.mark.parametrize("check", conformance.SOCKET_CHECKS, ids=lambda f: f.__name__)
 async def test_serial_port_on_an_rfc2217_url(check, tmp_path: Path) -> None:
     await check(rfc2217_harness(tmp_path))
+
+
+# -- the device switches its rate: the line follows after the bytes already written ----------
+def _line_baud(path: str) -> int | None:
+    from hil.transport.pty import _read_line_settings
+
+    fd = os.open(path, os.O_RDONLY | os.O_NOCTTY | os.O_NONBLOCK)
+    try:
+        return _read_line_settings(fd, opened=False).baud
+    finally:
+        os.close(fd)
+
+
+async def test_set_baud_after_the_pending_bytes(tmp_path: Path) -> None:
+    async with null_modem(tmp_path) as (bench_end, client_end):
+        port = SerialPort("adc", bench_end, FRAMING)
+        await port.start()
+        client = SerialClient(client_end)
+        try:
+            await client.open(115200)
+            port.write(b"Adjust your terminal\r\n")
+            port.set_baud(1_000_000)
+            assert await client.read(22, 2.0) == b"Adjust your terminal\r\n"
+            assert _line_baud(bench_end) == 1_000_000
+            assert port.line is not None and port.line.baud == 1_000_000 and port.framing.baud_bps == 1_000_000
+            assert port.stats.line_changes == 1
+        finally:
+            await client.close()
+            port.close()
+
+
+async def test_set_baud_on_a_raw_socket_is_a_note() -> None:
+    async with loopback_server() as server:
+        port = SerialPort("adc", server.url, FRAMING)
+        try:
+            port.set_baud(9600)
+            assert port.framing.baud_bps == 115200
+            assert any("no line rate to follow" in n for n in port.notes)
+        finally:
+            port.close()
