@@ -20,8 +20,8 @@ A campaign file (``rigs/campaigns/*.toml``; format in docs/replay-and-campaigns.
     "plant.body.mass_kg" = [1.1, 1.4]
 
 Every case is one ``run_case(params)`` (hil/campaign_case.py) in its own process. Executors:
-Dask distributed (a ``LocalCluster`` of processes, one thread each, no dashboard, 127.0.0.1;
-or a scheduler address) when installed, else a stdlib ``ProcessPoolExecutor``. Results stream
+Dask distributed (a ``LocalCluster`` of processes, one thread each, no dashboard, 127.0.0.1,
+TLS with temporary credentials; or a scheduler address) when installed, else a stdlib ``ProcessPoolExecutor``. Results stream
 into ``results.jsonl`` and a rich summary; ``summary.json`` is written at the end, also after
 Ctrl-C (which stops the running cases, their logs finalized, and cancels the queued ones).
 """
@@ -350,20 +350,42 @@ def _run_pool(cases: list[dict[str, Any]], workers: int, case_fn: CaseFn, handle
     return interrupted, cancelled
 
 
+def local_cluster_security() -> Any:
+    """TLS credentials for a local Dask cluster: a throw-away CA and certificate made for this
+    cluster (``Security.temporary()``, needs ``cryptography``), encryption required.
+
+    Dask's scheduler and workers listen on TCP ports; on loopback any local user could
+    otherwise connect and run code as us (a Dask client can submit any function). With TLS
+    and mutual authentication only holders of these in-memory credentials can."""
+    from distributed.security import Security
+
+    return Security.temporary()
+
+
+def start_local_cluster(workers: int, **kwargs: Any) -> Any:
+    """A LocalCluster of ``workers`` processes (one thread each, no dashboard) on 127.0.0.1,
+    speaking TLS with temporary credentials (:func:`local_cluster_security`)."""
+    from distributed import LocalCluster
+
+    security = local_cluster_security()
+    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                        host="127.0.0.1", protocol="tls://", security=security, **kwargs)
+
+
 def _run_dask(cases: list[dict[str, Any]], workers: int, scheduler: str | None, case_fn: CaseFn, handle: Handle,
               stop_file: Path, tag: str) -> tuple[bool, int]:
     """Dask distributed: a LocalCluster of ``workers`` processes, or the cluster at ``scheduler``."""
     import logging
 
-    from distributed import Client, LocalCluster, as_completed, wait
+    from distributed import Client, as_completed, wait
 
     cluster = None
     if scheduler:
+        # Security from Dask's configuration (distributed.comm.tls.*; docs/replay-and-campaigns.md)
         client = Client(scheduler)
     else:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               host="127.0.0.1", silence_logs=logging.ERROR)
-        client = Client(cluster)
+        cluster = start_local_cluster(workers, silence_logs=logging.ERROR)
+        client = Client(cluster, security=cluster.security)
         # A terminal Ctrl-C reaches the local workers too; the campaign stops the cases itself.
         with contextlib.suppress(Exception):
             client.run(_ignore_sigint)
@@ -459,7 +481,7 @@ def run_campaign(
     cdir = _campaign_dir(out_dir or campaign.out_dir, campaign.name)
     shutil.copyfile(campaign.path, cdir / "campaign.toml")
     cases = campaign.cases(cdir, keep_logs=keep_logs)
-    where = f"dask {scheduler}" if scheduler else f"dask LocalCluster x{n_workers}" if use_dask else f"process pool x{n_workers}"
+    where = f"dask {scheduler}" if scheduler else f"dask LocalCluster x{n_workers} (TLS)" if use_dask else f"process pool x{n_workers}"
     out.print(f"campaign {campaign.name}: {len(cases)} cases on {where} -> {cdir}", highlight=False, soft_wrap=True)
     results: list[dict[str, Any]] = []
     t0 = clock.monotonic_ns()

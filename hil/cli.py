@@ -21,10 +21,13 @@ from typing import Annotated, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 app = typer.Typer(
-    help="Hardware-in-the-loop bench for the Wang/Ma/Sun quad-rotor MAV.",
+    help="Hardware-in-the-loop bench for the Wang/Ma/Sun quad-rotor MAV. "
+    "Exit status of every command: 0 success, 1 a verdict failed (criteria, timing, verify), "
+    "2 bad input (an 'error:' line says which file, key or path and why); each command's --help says more.",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
@@ -33,8 +36,15 @@ console = Console()
 err_console = Console(stderr=True)
 
 
+def parse_attach_flags(flags: list[str]) -> dict[str, str]:
+    from hil.attach import parse_attach_flags as parse
+
+    return parse(flags)
+
+
 def _fail(message: str, code: int = 2) -> None:
-    err_console.print(f"[bold red]error:[/] {message}")
+    # escaped: messages quote file syntax such as "[[faults]]", which is not markup
+    err_console.print(f"[bold red]error:[/] {escape(message)}", soft_wrap=True)
     raise typer.Exit(code)
 
 
@@ -51,24 +61,41 @@ def run(
     stress_cpu: Annotated[int, typer.Option(help="Timing stress: CPU-bound processes beside the flight code.")] = 0,
     stress_adc_delay_us: Annotated[float, typer.Option(help="Timing stress: hold every ADC bridge reply back (wall us).")] = 0.0,
     wall_clock: Annotated[bool, typer.Option("--wall-clock", help="Lockstep with the flight code on the host clock (no clock shim; docs/time.md). For comparisons only: load then changes the flight.")] = False,
+    attach: Annotated[list[str] | None, typer.Option("--attach", help="PORT=DEVICE: this port on a real serial device or URL (/dev/ttyUSB0, socket://host:port, rfc2217://host:port); repeatable; realtime only.")] = None,
 ) -> None:
-    """Fly the flight code against the emulated vehicle and write one MCAP log."""
+    """Fly the flight code against the emulated vehicle and write one MCAP log.
+
+    Exit status: 0 the run completed and every criterion passed; 1 a criterion failed or the
+    run did not complete (flight code exited, boot failed, interrupted); 2 bad input (rig,
+    scenario, option, a fault the rig refuses): nothing was started.
+    """
     from hil.bench import Mode
     from hil.config import ConfigError
+    from hil.progress import PlainProgress
     from hil.rig import load_rig
     from hil.run import run_flight_async
     from hil.scenario import load_scenario
+    from hil.scenario_runner import ScenarioRunner
     from hil.summary import print_summary
 
     try:
         rig_obj = load_rig(rig)
         source = rig_obj.scenario_path(scenario)
         scenario_obj = load_scenario(source)
+        ScenarioRunner(scenario_obj, rig_obj, source)  # faults and budgets against the rig, before anything starts
         run_mode = Mode(mode)
     except ConfigError as exc:
         _fail(str(exc))
     except ValueError:
         _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
+    from hil.attach import refuse_lockstep, resolve_attachments
+    from hil.run import PORTS
+
+    try:
+        attach_map = parse_attach_flags(attach or [])
+        refuse_lockstep(resolve_attachments(rig_obj.ports, attach_map, PORTS, command="run"), run_mode.value)
+    except ConfigError as exc:
+        _fail(str(exc))
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -80,15 +107,25 @@ def run(
         TextColumn("{task.fields[phase]}"),
         TimeElapsedColumn(),
         console=console,
-        disable=quiet,
+        disable=quiet or not console.is_terminal,
         transient=True,
     )
+    # Not a terminal (CI log, pipe): plain progress lines instead of the bar.
+    plain: PlainProgress | None = None
 
     async def main() -> object:
         from hil import clock
 
-        task = progress.add_task(f"{rig_obj.name}/{scenario_obj.name}", total=1.0, sim="", rtf="-", phase="boot")
+        nonlocal plain
+        label = f"{rig_obj.name}/{scenario_obj.name}"
+        task = progress.add_task(label, total=1.0, sim="", rtf="-", phase="boot")
         start = {"wall": 0}
+        if not quiet and not console.is_terminal:
+            plain = PlainProgress(
+                label,
+                lambda line: console.print(line, markup=False, highlight=False, soft_wrap=True),
+                lambda: (clock.monotonic_ns() - start["wall"]) / 1e9 if start["wall"] else 0.0,
+            )
 
         def on_progress(sim_s: float, total_s: float, phase: str) -> None:
             now = clock.monotonic_ns()
@@ -102,6 +139,8 @@ def run(
                 rtf=f"{sim_s / wall:5.1f}x" if sim_s > 0.5 else "-",
                 phase=phase,
             )
+            if plain is not None:
+                plain(sim_s, total_s, phase)
 
         current = asyncio.current_task()
         loop = asyncio.get_running_loop()
@@ -122,13 +161,17 @@ def run(
                 virtual_time=False if wall_clock else None,
                 stress_cpu=stress_cpu,
                 stress_adc_delay_us=stress_adc_delay_us,
+                attach=attach_map,
             )
         finally:
             loop.remove_signal_handler(signal.SIGINT)
             loop.remove_signal_handler(signal.SIGTERM)
 
-    with progress:
-        result = asyncio.run(main())
+    try:
+        with progress:
+            result = asyncio.run(main())
+    except ConfigError as exc:  # refused before anything was created (e.g. a fault after the end)
+        _fail(str(exc))
     print_summary(console, result, rig_obj, scenario_obj)  # type: ignore[arg-type]
     raise typer.Exit(0 if result.passed else 1)  # type: ignore[attr-defined]
 
@@ -139,11 +182,17 @@ def devices(
     scenario: Annotated[str | None, typer.Option("--scenario", "-s", help="Scenario whose sticks drive the RC (default: the rig's).")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the device models.")] = 1,
     duration: Annotated[float | None, typer.Option(help="Stop after this many seconds (default: until Ctrl-C).")] = None,
+    attach: Annotated[list[str] | None, typer.Option("--attach", help="PORT=DEVICE: serve this port on a real serial device or URL instead of a pty (/dev/ttyUSB0, socket://host:port, rfc2217://host:port); repeatable.")] = None,
 ) -> None:
     """Bring the emulated devices up on ptys and print their paths, streaming in real time.
 
     Point any client (the flight code started by hand, miniterm, an Xbus tool) at the
     printed paths. The plant flies on the ESC commands the Maestro receives. Ctrl-C stops.
+    With --attach (or the rig's [ports] tables) a port is served on a real serial device
+    instead, for a flight-controller board wired through a USB-serial adapter.
+
+    Exit status: 0 stopped (Ctrl-C or --duration); 2 bad input (rig, scenario, --attach, a
+    serial device missing, busy or not permitted): nothing was started.
     """
     from hil.config import ConfigError
     from hil.devices_cmd import serve_devices
@@ -153,9 +202,11 @@ def devices(
     try:
         rig_obj = load_rig(rig)
         scenario_obj = load_scenario(rig_obj.scenario_path(scenario))
-    except ConfigError as exc:
+        attach_map = parse_attach_flags(attach or [])
+        asyncio.run(serve_devices(rig_obj, scenario_obj, seed=seed, duration_s=duration, console=console,
+                                  attach=attach_map))
+    except ConfigError as exc:  # bad files or flags, or a serial device missing/busy/denied: nothing started
         _fail(str(exc))
-    asyncio.run(serve_devices(rig_obj, scenario_obj, seed=seed, duration_s=duration, console=console))
 
 
 @app.command()
@@ -163,7 +214,10 @@ def recover(
     log: Annotated[Path, typer.Argument(help="A killed run's .mcap.part (or .mcap) file.")],
     out: Annotated[Path | None, typer.Option(help="Output file (default: LOG without .part, or LOG.recovered.mcap).")] = None,
 ) -> None:
-    """Salvage a killed run's MCAP: every complete chunk, metadata and attachments."""
+    """Salvage a killed run's MCAP: every complete chunk, metadata and attachments.
+
+    Exit status: 0 the file was written (it says how many messages were kept); 2 no such file.
+    """
     from hil.record import recover as do_recover
 
     if not log.exists():
@@ -180,7 +234,10 @@ def report(
     log: Annotated[Path, typer.Argument(help="A run's MCAP file.")],
     out: Annotated[Path | None, typer.Option(help="Directory for the PNG plots (default: next to the log).")] = None,
 ) -> None:
-    """Plot a run: attitude, altitude, motors and timing, as PNG files."""
+    """Plot a run: attitude, altitude, motors and timing, as PNG files.
+
+    Exit status: 0 the plots were written (their paths are printed); 2 no such file.
+    """
     from hil.report import make_report
 
     if not log.exists():
@@ -195,7 +252,12 @@ def timing(
     budget_us: Annotated[float, typer.Option(help="Response-time budget per sample (us).")] = 2500.0,
     png: Annotated[Path | None, typer.Option(help="Histogram PNG (default: LOG_timing.png next to the log).")] = None,
 ) -> None:
-    """Timing of the 400 Hz loop from a log: period, response latency, jitter, misses, compute."""
+    """Timing of the 400 Hz loop from a log: period, response latency, jitter, misses, compute.
+
+    Exit status: 0 every sample answered within the budget (and, for a realtime run, realtime
+    held); 1 a sample over the budget or without an ESC command, or realtime not held; 2 no
+    such file.
+    """
     from hil.timing import analyze_log, plot_latency
 
     if not log.exists():
@@ -232,7 +294,10 @@ def perf(
     runs: Annotated[int, typer.Option(help="Lockstep runs to take the median of.")] = 3,
     seconds: Annotated[float, typer.Option(help="Sim seconds per run.")] = 10.0,
 ) -> None:
-    """Benchmarks on this machine: plant tick, recording, lockstep RTF, realtime timing."""
+    """Benchmarks on this machine: plant tick, recording, lockstep RTF, realtime timing.
+
+    Exit status: 0 the table was printed (the figures are information, not a verdict).
+    """
     from hil.perf import measure
 
     rep = measure(lockstep_runs=runs, lockstep_s=seconds, realtime_s=seconds)
@@ -254,7 +319,11 @@ def replay(
     verify_: Annotated[bool, typer.Option("--verify", help="Re-run the recorded run from the log's attachments and compare the control wires byte for byte.")] = False,
     out: Annotated[Path, typer.Option(help="With --verify: where the re-run's log goes.")] = Path("logs/verify"),
 ) -> None:
-    """Play a recorded session's device bytes back on ptys, or --verify it by re-running it."""
+    """Play a recorded session's device bytes back on ptys, or --verify it by re-running it.
+
+    Exit status: 0 played back (or --verify: the re-run matched); 1 --verify found a
+    divergence; 2 no such file, or a log that cannot be replayed.
+    """
     from hil.record import TornRecordingError
     from hil.replay import ReplayError, verify
     from hil.replay import replay as do_replay
@@ -277,12 +346,16 @@ def replay(
 def campaign(
     file: Annotated[Path, typer.Argument(help="A campaign TOML (rigs/campaigns/*.toml).")],
     workers: Annotated[int | None, typer.Option(help="Parallel runs (default: one per two cores).")] = None,
-    scheduler: Annotated[str | None, typer.Option(help="A Dask scheduler address, e.g. tcp://host:8786.")] = None,
+    scheduler: Annotated[str | None, typer.Option(help="A Dask scheduler address, e.g. tls://host:8786 (credentials from the Dask config; docs/replay-and-campaigns.md).")] = None,
     executor: Annotated[str, typer.Option(help="auto (Dask if installed), dask or process.")] = "auto",
     out: Annotated[Path | None, typer.Option(help="Campaign output directory (default: the file's).")] = None,
     keep_logs: Annotated[str | None, typer.Option(help="all, failed or none (default: the file's).")] = None,
 ) -> None:
-    """Many runs (scenarios x seeds x sweeps), each in its own process, summarized."""
+    """Many runs (scenarios x seeds x sweeps), each in its own process, summarized.
+
+    Exit status: 0 every run passed; 1 a run failed; 2 bad campaign file or option;
+    130 interrupted (Ctrl-C; the summary covers the runs that finished).
+    """
     from hil.campaign import KeepLogs, load_campaign, run_campaign
     from hil.config import ConfigError
 
@@ -303,7 +376,10 @@ def campaign(
 def faults(
     layer: Annotated[str | None, typer.Option(help="Only this layer (plant, sensor, wire, device, process...).")] = None,
 ) -> None:
-    """The fault catalogue: every kind with its parameters, units and defaults."""
+    """The fault catalogue: every kind with its parameters, units and defaults.
+
+    Exit status: 0.
+    """
     from hil.faults import print_catalogue
 
     print_catalogue(console, layer)

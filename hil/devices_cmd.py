@@ -12,17 +12,19 @@ import contextlib
 import os
 import shutil
 import signal
-import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from rich.console import Console
 
+from hil.attach import follow_device_rates, open_attached, resolve_attachments
 from hil.bench import Mode, TickLoop
 from hil.devices import DeviceSet
 from hil.rig import Rig
+from hil.rundir import make_run_dir
 from hil.scenario import Scenario
 from hil.scenario_runner import ScenarioRunner
+from hil.transport.base import Port
 from hil.transport.pty import PtyPort
 
 DEVICE_PORTS = ("imu", "adc", "adc-spidriver", "rc", "esc", "telemetry", "ground")
@@ -47,31 +49,41 @@ async def serve_devices(
     console: Console,
     on_ready: Callable[[dict[str, str]], None] | None = None,
     run_dir: Path | None = None,
+    attach: Mapping[str, str] | None = None,
 ) -> dict[str, dict[str, int]]:
-    """Serve until Ctrl-C or ``duration_s``; returns the device counters."""
+    """Serve until Ctrl-C or ``duration_s``; returns the device counters.
+
+    ``attach``: port -> device or URL over the rig's ``[ports]`` (hil/attach.py). Those ports
+    are opened first, all or none (a :class:`~hil.config.ConfigError` naming port and path,
+    and nothing started); the others are ptys."""
+    runner = ScenarioRunner(scenario, rig)
+    attachments = resolve_attachments(rig.ports, attach or {}, DEVICE_PORTS, command="devices")
+    attached = open_attached(attachments, rig.port_baud)
     own_dir = run_dir is None
-    run_dir = run_dir or Path(tempfile.mkdtemp(prefix=f"hil-devices-{rig.name}-"))
+    run_dir = run_dir or make_run_dir(f"hil-devices-{rig.name}-")
     os.chmod(run_dir, 0o700)
     dev_dir = run_dir / "dev"
     dev_dir.mkdir(mode=0o700, exist_ok=True)
-    runner = ScenarioRunner(scenario, rig)
     devices = DeviceSet(rig, seed=seed, stick_script=runner.stick_script(), with_spidriver=True)
     runner.bind(devices)
     runner.attach_flight(None)
-    ports = {name: PtyPort(name, dev_dir) for name in DEVICE_PORTS}
+    ports: dict[str, Port] = {name: attached.get(name) or PtyPort(name, dev_dir) for name in DEVICE_PORTS}
     for port in ports.values():
         await port.start()
     devices.attach(dict(ports))
+    follow_device_rates(devices, attached)
 
     # Plain lines, never wrapped, so a path can be copied into a client's command line.
     console.print(f"{rig.name}: emulated devices in real time (Ctrl-C to stop)", highlight=False)
     for name, port in ports.items():
-        console.print(
-            f"  {name:<14} {port.path}  ({DESCRIPTIONS[name]}, {rig.device_baud(name) if name != 'adc-spidriver' else rig.adc.spidriver.baud_bps} baud)",
-            soft_wrap=True,
-            highlight=False,
-            markup=False,
-        )
+        line = attachments[name] if name in attachments else None
+        how = (f"attached, {rig.port_baud(name)} baud {line.bytesize}{line.parity}{line.stopbits}"
+               if line is not None else f"{rig.port_baud(name)} baud")
+        console.print(f"  {name:<14} {port.path}  ({DESCRIPTIONS[name]}, {how})",
+                      soft_wrap=True, highlight=False, markup=False)
+    for port in attached.values():
+        for text in port.notes:
+            console.print(f"  note: {text}", soft_wrap=True, highlight=False, markup=False)
 
     duration_ns = int((duration_s if duration_s is not None else 10 * 365 * 86400.0) * 1e9)
     loop = TickLoop(

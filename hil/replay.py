@@ -38,6 +38,7 @@ from rich.console import Console
 from hil import clock
 from hil.record import iter_messages, message_counts, read_attachments, read_metadata
 from hil.record.topics import WIRE_PORTS
+from hil.rundir import make_run_dir
 from hil.transport.base import LineSettings, WireRecord
 from hil.transport.pty import PtyPort
 
@@ -123,7 +124,7 @@ async def replay(
     chosen = _choose_ports(ports, replay_ports(log), log)
     run = read_metadata(log).get("run", {})
     out = console if console is not None else Console()
-    run_dir = Path(tempfile.mkdtemp(prefix="hil-replay-"))
+    run_dir = make_run_dir("hil-replay-")
     os.chmod(run_dir, 0o700)
     dev_dir = run_dir / "dev"
     dev_dir.mkdir(mode=0o700)

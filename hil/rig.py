@@ -13,6 +13,7 @@ vehicle; unknown tables and keys are errors naming the file and key):
     [telemetry]  [telemetry.vehicle], [telemetry.ground], [telemetry.link]
     [flight]     command, config (the flight code's config template), timeouts
     [record]     recording rates
+    [ports.<port>]  attach a port to a real serial device or URL (hil/attach.py)
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field
 
+from hil.attach import load_ports_table
 from hil.config import (
     ConfigError,
     check_keys,
@@ -138,6 +140,8 @@ class Rig:
     flight: FlightSection
     record: RecordSection
     raw: dict[str, Any] = field(repr=False, default_factory=dict)
+    #: ports attached to real serial devices ([ports.<port>]; hil/attach.py)
+    ports: dict[str, Any] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -167,6 +171,12 @@ class Rig:
             return int(bd_to_baud((self.telemetry.vehicle if port == "telemetry" else self.telemetry.ground).bd))
         raise KeyError(port)
 
+    def port_baud(self, port: str) -> int:
+        """Like :meth:`device_baud`, for every port ``hil devices`` serves (adc-spidriver too)."""
+        if port == "adc-spidriver":
+            return int(self.adc.spidriver.baud_bps)
+        return self.device_baud(port)
+
     def scenario_path(self, name_or_path: str | Path | None) -> Path:
         return resolve_scenario(name_or_path or self.header.default_scenario, self.path)
 
@@ -186,7 +196,7 @@ def load_rig(name_or_path: str | Path | None = None) -> Rig:
     data = load_toml(path)
     check_keys(
         data,
-        {"rig", "plant", "imu", "adc", "analog", "rc", "esc", "telemetry", "flight", "record"},
+        {"rig", "plant", "imu", "adc", "analog", "rc", "esc", "telemetry", "flight", "record", "ports"},
         file=path,
         section="top level",
     )
@@ -217,6 +227,7 @@ def load_rig(name_or_path: str | Path | None = None) -> Rig:
         flight=validate(FlightSection, _table(data, "flight"), file=path, section="flight"),
         record=validate(RecordSection, _table(data, "record"), file=path, section="record"),
         raw=data,
+        ports=load_ports_table(data.get("ports", {}), file=path),
     )
     if not rig.flight_config_path.exists():
         raise ConfigError(f"{path}: [flight] config: {rig.flight_config_path} does not exist")

@@ -14,11 +14,9 @@ import asyncio
 import contextlib
 import json
 import math
-import os
 import shutil
 import sys
-import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,6 +25,7 @@ import numpy as np
 import tomli_w
 
 from hil import __version__, clock
+from hil.attach import follow_device_rates, open_attached, refuse_lockstep, resolve_attachments
 from hil.bench import BootError, Clock, EndReason, Mode, TickLoop
 from hil.config import ConfigError, load_toml
 from hil.criteria import CriterionResult, evaluate
@@ -34,12 +33,14 @@ from hil.devices import DeviceSet
 from hil.flightproc import FlightProcess, expand_command
 from hil.record.process import ProcessRecorder
 from hil.rig import Rig, load_rig
+from hil.rundir import make_run_dir
 from hil.runlog import RunLogger
 from hil.scenario import Scenario, load_scenario
 from hil.scenario_runner import ScenarioRunner
 from hil.stress import CpuHog
-from hil.timing import REALTIME_MAX_LATE_US, realtime_verdict, scaled_compute_us
+from hil.timing import REALTIME_MAX_LATE_US, compute_samples_us, realtime_verdict
 from hil.trace import Trace
+from hil.transport.base import Port
 from hil.transport.pty import PtyPort
 from hil.vtime.preload import Fallback
 from hil.vtime.session import ShimUsage, VirtualTime, describe_stall
@@ -87,7 +88,7 @@ def deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def write_flight_config(rig: Rig, scenario: Scenario, ports: dict[str, PtyPort], run_dir: Path) -> Path:
+def write_flight_config(rig: Rig, scenario: Scenario, ports: Mapping[str, Port], run_dir: Path) -> Path:
     """The flight code's own config, from the rig's template, pointing at the symlinks."""
     template_path = rig.flight_config_path
     config = load_toml(template_path)
@@ -95,7 +96,9 @@ def write_flight_config(rig: Rig, scenario: Scenario, ports: dict[str, PtyPort],
     port_table = dict(config.get("ports", {}))
     for name in ("imu", "adc", "rc", "esc", "telemetry"):
         entry = dict(port_table.get(name, {}))
-        entry["path"] = ports[name].path
+        client_path = ports[name].client_path  # None: a real line whose far end the template names
+        if client_path is not None:
+            entry["path"] = client_path
         # A template that names a baud keeps it (a wrong one is a test of the flight code);
         # otherwise the device's own line rate from the rig.
         entry.setdefault("baud", rig.device_baud(name))
@@ -149,14 +152,14 @@ def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None, cp
         jitter = np.abs(period - tick_ns / 1e3)
         out |= {"period_p50_us": float(np.percentile(period, 50)), "period_jitter_p99_us": float(np.percentile(jitter, 99))}
     if virtual:
-        out |= _percentiles("fc_compute", scaled_compute_us(np.asarray(st.fc_cpu_ns) / 1e3, cpu_scale))
         out["boot_sim_s"] = st.boot_sim_ns / 1e9
-    elif trace is not None:
-        try:
-            _, compute = trace.signal("tm.compute_last_us")
-        except KeyError:
-            compute = np.zeros(0)
-        out |= _percentiles("fc_compute", compute[np.isfinite(compute)])
+    telemetry_compute: np.ndarray | None = None
+    if trace is not None:
+        with contextlib.suppress(KeyError):
+            telemetry_compute = trace.signal("tm.compute_last_us")[1]
+    # one rule with `hil timing` (hil/timing.py)
+    fc_cpu_us = np.asarray(st.fc_cpu_ns) / 1e3 if virtual else None
+    out |= _percentiles("fc_compute", compute_samples_us(fc_cpu_us, telemetry_compute, cpu_scale))
     if st.lateness_ns:
         out |= _percentiles("lateness", np.asarray(st.lateness_ns) / 1e3)
     return out
@@ -198,29 +201,38 @@ async def run_flight_async(
     stress_cpu: int = 0,
     stress_adc_delay_us: float = 0.0,
     virtual_time: bool | None = None,
+    attach: Mapping[str, str] | None = None,
 ) -> RunResult:
-    """Run one flight (see module docstring). Never raises for run-time failures.
+    """Run one flight (see module docstring). Never raises for run-time failures; a scenario
+    the rig refuses raises :class:`ConfigError` before anything is created.
 
     ``virtual_time``: lockstep on sim time through the clock shim (None: the rig's
-    ``[flight] virtual_time``, on by default); False runs lockstep on the host clock."""
+    ``[flight] virtual_time``, on by default); False runs lockstep on the host clock.
+    ``attach``: port -> device or URL over the rig's ``[ports]`` (hil/attach.py); realtime only."""
     # The recorder's writer thread must not hold the GIL for the default 5 ms while the
     # tick waits on a pty (hil/record measurements: wake-ups 2.2 ms late otherwise).
     sys.setswitchinterval(SWITCH_INTERVAL_S)
     seed = scenario.scenario.seed if seed is None else seed
     duration_ns = scenario.duration_ns if duration_s is None else int(duration_s * 1e9)
-    run_dir = Path(tempfile.mkdtemp(prefix=f"hil-{rig.name}-"))
-    os.chmod(run_dir, 0o700)
+    # The scenario is checked against the rig (faults, budgets) before anything is created:
+    # a refused scenario raises ConfigError and leaves nothing behind.
+    runner = ScenarioRunner(scenario, rig, scenario_source)
+    # Real serial ports open first, all or none: a missing/busy one leaves nothing behind.
+    attachments = resolve_attachments(rig.ports, attach or {}, PORTS, command="run")
+    refuse_lockstep(attachments, mode.value)
+    attached = open_attached(attachments, rig.port_baud)
+    run_dir = make_run_dir(f"hil-{rig.name}-")
     dev_dir = run_dir / "dev"
     dev_dir.mkdir(mode=0o700)
 
-    runner = ScenarioRunner(scenario, rig, scenario_source)
     devices = DeviceSet(rig, seed=seed, stick_script=runner.stick_script())
     devices.adc_reply_delay_ns = int(stress_adc_delay_us * 1000)
     runner.bind(devices)
-    ports = {name: PtyPort(name, dev_dir) for name in PORTS}
+    ports: dict[str, Port] = {name: attached.get(name) or PtyPort(name, dev_dir) for name in PORTS}
     for port in ports.values():
         await port.start()
     devices.attach(dict(ports))
+    follow_device_rates(devices, attached)
 
     run_start_unix_ns = clock.wall_ns()
     recorder: ProcessRecorder | None = None
@@ -250,6 +262,10 @@ async def run_flight_async(
     def note(text: str) -> None:
         notes.append(text)
         logger.event(max(devices.t_ns, 0), "run", "note", {"text": text})
+
+    for port in attached.values():
+        for text in port.notes:
+            note(text)
 
     vt: VirtualTime | None = None
     clock_note = ""

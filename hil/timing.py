@@ -12,10 +12,11 @@ Figures (all microseconds unless noted):
 * **jitter**: period minus its nominal value.
 * **misses**: samples whose latency exceeded the budget, plus samples with no command at
   all (barrier timeouts).
-* **compute**: with virtual time, the flight code's CPU time per sample (read by the clock
-  shim at each blocking call) times the rig's ``cpu_scale`` (docs/time.md); otherwise the
-  flight code's own per-loop compute time as it reports in telemetry. The run summary and
-  ``hil timing`` compute it the same way (:func:`scaled_compute_us`).
+* **compute**: the flight code's compute per loop (:func:`compute_samples_us`, the one rule
+  shared by the run summary and ``hil timing``): with virtual time, the bench's per-sample
+  measurement of the flight code's CPU time (read by the clock shim at each blocking call)
+  scaled to the target by the rig's ``cpu_scale`` (docs/time.md); otherwise the flight
+  code's own figure from its telemetry.
 * **lateness** (realtime only): how late each tick started against its absolute wall
   deadline. A run whose ticks fell behind is not a 400 Hz run, whatever its RTF says:
   :func:`realtime_verdict` says whether realtime was held.
@@ -61,6 +62,26 @@ class Stats:
             float(v.max()),
             float(v.mean()),
         )
+
+
+def compute_samples_us(
+    fc_cpu_us: np.ndarray | None, telemetry_compute_us: np.ndarray | None, cpu_scale: float = 1.0
+) -> np.ndarray:
+    """The flight code's compute per loop in us (target processor), from what a run has.
+
+    ``fc_cpu_us``: the bench's per-sample CPU measurement (virtual time), host us, negative
+    where not measured. ``telemetry_compute_us``: the flight code's own figures (50 Hz).
+    ``cpu_scale``: target time per host time. The per-sample measurement wins when it has
+    any sample: it covers every loop, telemetry only every eighth. Non-finite values go.
+    """
+    if fc_cpu_us is not None:
+        cpu = scaled_compute_us(fc_cpu_us, cpu_scale)
+        if cpu.size:
+            return cpu
+    if telemetry_compute_us is None:
+        return np.zeros(0)
+    tm = np.asarray(telemetry_compute_us, dtype=float)
+    return tm[np.isfinite(tm)]
 
 
 @dataclass(frozen=True)
@@ -118,7 +139,7 @@ def scaled_compute_us(fc_cpu_us: np.ndarray, cpu_scale: float) -> np.ndarray:
     """The flight code's compute per sample on the target processor: its CPU time on this
     host (us, -1 where not measured) times ``cpu_scale``; unmeasured samples dropped."""
     cpu = np.asarray(fc_cpu_us, dtype=float)
-    return cpu[cpu >= 0] * cpu_scale
+    return cpu[np.isfinite(cpu) & (cpu >= 0)] * cpu_scale
 
 
 def analyze_arrays(
@@ -164,17 +185,19 @@ def analyze_log(log: Path, budget_us: float = NOMINAL_PERIOD_US) -> TimingReport
     from hil.record import read_metadata, read_topic
 
     tick = read_topic(log, "/hil/timing/tick")
-    compute, source = None, "telemetry"
+    tm = read_topic(log, "/fc/telemetry")
+    telemetry = None
+    for key in ("compute_last_us", "compute_us", "loop_compute_us"):
+        if key in tm and tm[key].size:
+            telemetry = tm[key]
+            break
+    try:
+        cpu_scale = float(read_metadata(log).get("verdict", {}).get("cpu_scale", 1.0))
+    except ValueError:
+        cpu_scale = 1.0
     cpu = tick.get("fc_cpu_us") if tick else None
-    if cpu is not None and np.any(cpu >= 0):
-        verdict = read_metadata(log).get("verdict", {})
-        compute, source = scaled_compute_us(cpu, float(verdict.get("cpu_scale", "1") or 1)), "cpu"
-    else:
-        tm = read_topic(log, "/fc/telemetry")
-        for key in ("compute_last_us", "compute_us", "loop_compute_us"):
-            if key in tm and tm[key].size:
-                compute = tm[key]
-                break
+    source = "cpu" if cpu is not None and np.any(np.asarray(cpu) >= 0) else "telemetry"
+    compute = compute_samples_us(cpu, telemetry, cpu_scale)
     if not tick or "latency_us" not in tick:
         return analyze_arrays(np.zeros(0), np.zeros(0), compute_us=compute, budget_us=budget_us, compute_source=source)
     return analyze_arrays(tick["latency_us"], tick["esc_arrival_host_ns"], compute_us=compute, budget_us=budget_us,

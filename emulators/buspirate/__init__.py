@@ -1,7 +1,13 @@
 """Bus Pirate v3 in binary mode (BBIO1/SPI1) with the MCP3204 on its SPI pins."""
 
 from emulators.buspirate.defs import Mode
-from emulators.buspirate.device import BusPirate, BusPirateModeChanged, BusPirateProtocolError, BusPirateSpi
+from emulators.buspirate.device import (
+    BusPirate,
+    BusPirateModeChanged,
+    BusPirateProtocolError,
+    BusPirateSpi,
+    BusPirateUartRate,
+)
 from emulators.buspirate.params import BusPirateParams
 from emulators.buspirate.terminal import Terminal
 
@@ -11,6 +17,7 @@ __all__ = [
     "BusPirateParams",
     "BusPirateProtocolError",
     "BusPirateSpi",
+    "BusPirateUartRate",
     "Mode",
     "Terminal",
 ]

@@ -75,6 +75,13 @@ class BusPirateProtocolError(DeviceEvent):
 
 
 @dataclass(frozen=True)
+class BusPirateUartRate(DeviceEvent):
+    """The PC-side UART changed its rate (terminal ``b`` menu, or back after a reset)."""
+
+    baud_bps: int
+
+
+@dataclass(frozen=True)
 class BusPirateSpi(DeviceEvent):
     """One bulk transfer or write-then-read on the SPI pins."""
 
@@ -114,12 +121,15 @@ class BusPirate(ByteDevice):
         self._stream_t0_ns = 0
         self._stream_sent = 0
         self.pins = Pins(params.target_pullups)
+        #: the PC-side UART's rate in bit/s: the power-up rate until the ``b`` menu changes it
+        self.uart_baud_bps = params.baud_bps
         self._reset_spi()
         self._send(self.terminal.reset())  # power-up banner (flushed by the host's open)
+        self.terminal.take_baud_change()
 
     # -- ByteDevice --------------------------------------------------------------------
     def receive(self, data: bytes, t_ns: int) -> None:
-        if self.host_baud is not None and self.host_baud != self.params.baud_bps:
+        if self.host_baud is not None and self.host_baud != self.uart_baud_bps:
             # Wrong line rate: the PIC's UART sees framing errors and drops the bytes.
             self.counters["bytes_at_wrong_baud"] += len(data)
             return
@@ -157,7 +167,7 @@ class BusPirate(ByteDevice):
 
     def advance(self, t_ns: int) -> None:
         if self.mode is Mode.ADC_STREAM:  # two bytes per reading, as fast as the UART goes
-            byte_ns = 10 * 1_000_000_000 // self.params.baud_bps  # 8N1
+            byte_ns = 10 * 1_000_000_000 // self.uart_baud_bps  # 8N1
             due = (t_ns - self._stream_t0_ns) // (2 * byte_ns)
             n = max(0, min(due - self._stream_sent, 2048))
             self._send(b"\x00\x00" * n)  # the probe input is not connected: 0 counts
@@ -169,6 +179,7 @@ class BusPirate(ByteDevice):
         if mode is Mode.TERMINAL:
             out, binary = self.terminal.feed(byte)
             self._send(out)
+            self._follow_terminal_baud(t_ns)
             if binary:
                 self._enter_bbio(t_ns)
         elif mode is Mode.BBIO:
@@ -183,6 +194,16 @@ class BusPirate(ByteDevice):
             self._set_mode(Mode.BBIO, t_ns)  # any byte ends the stream (and is consumed)
         elif mode is Mode.SNIFF:
             self._set_mode(Mode.SPI, t_ns)  # any byte ends the sniffer (and is consumed)
+
+    def _follow_terminal_baud(self, t_ns: int) -> None:
+        """Switch the UART after the terminal's confirmation went out at the old rate: from
+        now on the host must talk at the new rate (it changes its termios; the pty tells
+        us through ``line_settings_changed``), else its bytes are framing errors."""
+        baud = self.terminal.take_baud_change()
+        if baud is not None and baud != self.uart_baud_bps:
+            self.uart_baud_bps = baud
+            self.counters["uart_rate_changes"] += 1
+            self._event(BusPirateUartRate(t_ns, baud))
 
     def _set_mode(self, mode: Mode, t_ns: int) -> None:
         if mode is not self.mode:
@@ -236,6 +257,7 @@ class BusPirate(ByteDevice):
             self.pins.reset()
             self._set_mode(Mode.TERMINAL, t_ns)
             self._send(self.terminal.reset())
+            self._follow_terminal_baud(t_ns)
         elif byte in (BbioCmd.SELFTEST_SHORT, BbioCmd.SELFTEST_FULL):
             self._set_mode(Mode.SELFTEST, t_ns)
             self._send(bytes([self.params.selftest_errors & 0xFF]))

@@ -9,6 +9,7 @@ chunking. mcap-python has no recover of its own (research/ecosystem.md section 1
 
 from __future__ import annotations
 
+import os
 import struct
 import zlib
 from pathlib import Path
@@ -17,6 +18,8 @@ from mcap.exceptions import McapError
 from mcap.records import Attachment, Channel, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
+
+from hil.record.writer import LOG_FILE_MODE
 
 try:  # zstd decompression errors of a torn/corrupt chunk
     from zstandard import ZstdError as _ZstdError
@@ -46,7 +49,9 @@ def recover(src: Path | str, dst: Path | str, *, chunk_size: int = 65536) -> int
     src_p, dst_p = Path(src), Path(dst)
     n = 0
     stop_reason = "footer"
-    with src_p.open("rb") as f, dst_p.open("wb") as out:
+    # same mode as a recorded log (LOG_FILE_MODE, narrowed by the umask)
+    fd = os.open(dst_p, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, LOG_FILE_MODE)
+    with src_p.open("rb") as f, os.fdopen(fd, "wb") as out:
         w = Writer(out, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         started = False
         schemas: dict[int, int] = {0: 0}

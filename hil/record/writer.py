@@ -52,6 +52,13 @@ from hil.record.topics import TOPICS, Stamp, TopicSpec, UnknownTopicError, topic
 from hil.transport.base import WireRecord
 
 _LIBRARY = f"mav-hil-bench/{hil.__version__} mcap-python"
+#: The MCAP header's profile: this project's conventions (docs/recording.md "Profile"): JSON
+#: messages described by JSON Schema, log_time = run start + sim time, the topic table of
+#: hil/record/topics.py. Not one of MCAP's well-known ROS profiles, which would promise ROS types.
+PROFILE = "mav-hil"
+#: A log holds a whole flight (rig, gains, every byte): owner read/write, group read, nothing
+#: for others; the process umask narrows it further (umask 077 -> 0600).
+LOG_FILE_MODE = 0o640
 #: With a backlog, the writer blocks for _YIELD_S after every _YIELD_EVERY messages. Without
 #: it a busy writer keeps the GIL for the 5 ms switch interval and the tick thread's wake-ups
 #: wait that long (measured: median 2.2 ms late -> 0.3 ms; costs ~25 % of writer throughput).
@@ -305,7 +312,7 @@ class Recorder:
             self._check("start")
         if self.path.exists():
             raise FileExistsError(f"{self.path} exists")
-        fd = os.open(self.part_path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        fd = os.open(self.part_path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, LOG_FILE_MODE)
         sink = _SinkProxy(fd)
         try:
             writer = self._begin_file(sink)
@@ -323,7 +330,7 @@ class Recorder:
         """Header, ``run`` metadata, attachments (straight to the OS), then schemas and channels."""
         w = Writer(sink, chunk_size=self._chunk_size, compression=CompressionType.ZSTD,  # type: ignore[arg-type]
                    enable_crcs=True, enable_data_crcs=False)
-        w.start(profile="", library=_LIBRARY)
+        w.start(profile=PROFILE, library=_LIBRARY)
         run = dict(self._metadata)
         run.setdefault("run_start_unix_ns", str(self.run_start_unix_ns))
         run["record.chunk_size"] = str(self._chunk_size)

@@ -96,6 +96,12 @@ class Port:
         """Path a client opens (a stable symlink for ptys), None for in-memory ports."""
         return None
 
+    @property
+    def client_path(self) -> str | None:
+        """What a bench-started client (the flight code) opens to reach this port; None when
+        the bench cannot say (a real line whose far end the client config names itself)."""
+        return self.path
+
     def write(self, data: bytes) -> int:  # pragma: no cover - abstract
         """Queue ``data`` for the client without blocking; return bytes accepted."""
         raise NotImplementedError

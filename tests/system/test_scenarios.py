@@ -95,7 +95,7 @@ async def test_report_and_timing_of_a_log(fly, tmp_path: Path) -> None:
     result = await fly("hover", duration_s=4.0)
     assert result.log_path is not None
     pngs = make_report(result.log_path, tmp_path / "plots")
-    assert [p.name.rsplit("_", 1)[-1] for p in pngs] == ["attitude.png", "altitude.png", "motors.png", "timing.png"]
+    assert [p.name.rsplit("_", 1)[-1] for p in pngs] == ["attitude.png", "altitude.png", "motors.png", "report-timing.png"]
     assert all(p.stat().st_size > 10_000 for p in pngs)
     rep = analyze_log(result.log_path)
     assert rep.samples == result.timing["ticks"]

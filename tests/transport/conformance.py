@@ -144,5 +144,20 @@ ALL_CHECKS = [
 ]
 
 
+
+
+#: a real serial line (SerialPort): the bench owns the line settings (no client termios to
+#: notice) and a null-modem peer that closes may end the line, so those two checks do not apply
+SERIAL_CHECKS = [
+    check_bench_to_client,
+    check_client_to_bench,
+    check_overflow_counted,
+    check_tap_sees_both_directions,
+    check_write_confirmed,
+]
+#: socket:// - the kernel's TCP buffers hold megabytes, so a non-reading peer shows no overflow soon
+SOCKET_CHECKS = [c for c in SERIAL_CHECKS if c is not check_overflow_counted]
+
+
 async def _unused() -> AsyncIterator[None]:  # pragma: no cover - typing helper
     yield None

@@ -82,7 +82,7 @@ def test_two_cases_through_a_dask_local_cluster(tmp_path: Path) -> None:
     pytest.importorskip("distributed")
     campaign = load_campaign(DATA / "two-seeds.toml")
     run = run_campaign(campaign, executor="dask", out_dir=tmp_path, keep_logs=KeepLogs.NONE, console=_quiet())
-    assert run.summary["executor"] == "dask LocalCluster x2"
+    assert run.summary["executor"] == "dask LocalCluster x2 (TLS)"
     for r in _check_two_seed_run(run):
         assert r["log"] is None
     assert not list((run.dir / "logs").glob("*.mcap*"))
@@ -153,3 +153,23 @@ def test_ctrl_c_stops_the_running_case_cancels_the_rest_and_still_writes_the_res
     assert s["done"] == len(lines) and s["done"] + s["cancelled"] == 3
     assert not (run.dir / "STOP").exists()
     assert not run.passed
+
+
+def test_local_cluster_speaks_tls_and_refuses_clients_without_its_credentials() -> None:
+    """The local Dask cluster listens with TLS and mutual authentication: a client without the
+    temporary credentials (any other local user) cannot connect."""
+    pytest.importorskip("distributed")
+    from distributed import Client
+
+    from hil.campaign import start_local_cluster
+
+    with start_local_cluster(1) as cluster:
+        assert cluster.scheduler_address.startswith("tls://127.0.0.1:")
+        assert cluster.security.require_encryption
+        with Client(cluster, security=cluster.security) as ok:
+            assert ok.submit(sum, [1, 2]).result(timeout=60) == 3
+        with pytest.raises(Exception):  # noqa: B017 - TLS handshake refused or timed out, per version
+            Client(cluster.scheduler_address, timeout="3s")
+        plain = cluster.scheduler_address.replace("tls://", "tcp://")
+        with pytest.raises(Exception):  # noqa: B017
+            Client(plain, timeout="3s")
