@@ -73,7 +73,9 @@ async def test_realtime_mode_runs_on_the_wall_clock(fly) -> None:
     t = result.timing
     assert t["ticks"] == 801
     assert "lateness_p50_us" in t and "latency_p50_us" in t
-    assert t["esc_commands"] > 700  # the flight code kept up and answered (nearly) every sample
+    # how many samples the flight code answered in time depends on the machine's load (the
+    # figures belong to `hil perf`); that it flew on the wall clock and answered does not
+    assert t["esc_commands"] > 0
     # whether realtime was held depends on the machine's load: the run and `hil timing` must
     # say the same thing about it, from the lateness recorded per sample
     from hil.record import read_topic
