@@ -3,7 +3,9 @@
 * plant: the cost of one 2.5 ms tick of the plant (median, p99, us);
 * recording: the cost of one ``log()`` on the tick path and the writer's sustained rate;
 * lockstep: the real-time factor of the full stack (plant, all emulators, the flight code
-  as a subprocess, recording) and the bench's own cost per tick;
+  as a subprocess, recording) and the bench's own cost per tick, interleaved with the bare
+  lockstep skeleton (``hil.skeleton``: the same exchanges over ptys with pyserial, nothing
+  else), so the ratio says how much of what the transport allows the bench reaches;
 * realtime: the IMU emit-period error (the pacer's lateness) and the flight code's response
   latency (IMU emitted -> ESC command) p50/p99/max, next to a bare timer loop measured in
   the same process right before (the floor of this machine).
@@ -67,8 +69,11 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         rep.add("record log() call (median)", rec.log_us_median, "us", f"p99 {rec.log_us_p99:.3g} us, on the tick path")
         rep.add("record writer rate", rec.writer_msgs_per_s, "msg/s", "writer thread, zstd 64 KiB chunks")
 
-        rtfs, costs, lat50, lat99 = [], [], [], []
+        from hil.skeleton import run_skeleton
+
+        rtfs, costs, lat50, lat99, skel = [], [], [], [], []
         for i in range(lockstep_runs):
+            skel.append(asyncio.run(run_skeleton(lockstep_s)).rtf)
             res = run_flight(None, "hover", mode=Mode.LOCKSTEP, duration_s=lockstep_s, out_dir=Path(tmp) / f"l{i}")
             rtfs.append(res.timing["rtf"])
             costs.append(res.timing.get("bench_cost_p50_us", float("nan")))
@@ -77,7 +82,12 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         rep.add("lockstep real-time factor (median)", statistics.median(rtfs), "x",
                 f"{lockstep_runs} runs of {lockstep_s:g} s hover, everything recorded; runs: "
                 + ", ".join(f"{r:.2f}" for r in rtfs))
-        rep.add("lockstep bench cost per tick (median)", statistics.median(costs), "us", "excluding the wait for the flight code")
+        rep.add("bare lockstep skeleton RTF (median)", statistics.median(skel), "x",
+                "hil.skeleton, interleaved with the runs above; runs: " + ", ".join(f"{r:.2f}" for r in skel))
+        rep.add("bench / skeleton RTF", statistics.median(rtfs) / statistics.median(skel), "",
+                "share of what the pty transport allows (target >= 0.6)")
+        rep.add("lockstep bench cost per tick (median)", statistics.median(costs), "us",
+                "excluding the wait for the flight code (target <= 150 us)")
         rep.add("lockstep flight response p50", statistics.median(lat50), "us", "IMU written -> ESC command read")
         rep.add("lockstep flight response p99", statistics.median(lat99), "us", "")
 

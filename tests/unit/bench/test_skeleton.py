@@ -1,0 +1,16 @@
+"""The bare lockstep skeleton of `hil perf` runs its exchange to the end (no timing asserted:
+its RTF is a benchmark figure)."""
+
+from __future__ import annotations
+
+import pytest
+
+from hil.skeleton import TICK_NS, run_skeleton
+
+pytestmark = pytest.mark.pty
+
+
+async def test_the_skeleton_completes_every_tick() -> None:
+    result = await run_skeleton(0.05)
+    assert result.ticks == round(0.05e9 / TICK_NS) == 20
+    assert result.wall_s > 0 and result.rtf > 0
