@@ -206,10 +206,44 @@ def asleep_in_kernel(pid: int, tid: int) -> bool:
     thread runnable (R) before it returns to the shim."""
     try:
         with open(f"/proc/{pid}/task/{tid}/stat", "rb") as f:
-            stat = f.read()
+            return _sleeping(f.read())
     except OSError:
         return True  # gone: nothing left to wait for (the exit is noticed separately)
-    return stat[stat.rindex(b")") + 2 : stat.rindex(b")") + 3] in (b"S", b"D")
+
+
+def _sleeping(stat: bytes) -> bool:
+    i = stat.rindex(b")") + 2  # the state letter follows "(comm) "
+    return stat[i : i + 1] in (b"S", b"D")
+
+
+class ThreadStates:
+    """:func:`asleep_in_kernel` for the threads the bench asks about every tick: each stat
+    file stays open and is re-read with one ``pread`` (procfs regenerates it at offset 0),
+    instead of open + read + close: about 10 us less per thread and check on this VM."""
+
+    def __init__(self) -> None:
+        self._fds: dict[tuple[int, int], int] = {}
+
+    def asleep(self, pid: int, tid: int) -> bool:
+        key = (pid, tid)
+        fd = self._fds.get(key)
+        try:
+            if fd is None:
+                fd = self._fds[key] = os.open(f"/proc/{pid}/task/{tid}/stat", os.O_RDONLY | os.O_CLOEXEC)
+            return _sleeping(os.pread(fd, 1024, 0))
+        except (OSError, ValueError):
+            self.forget(pid)
+            return True  # gone: nothing left to wait for (the exit is noticed separately)
+
+    def forget(self, pid: int) -> None:
+        """Close the files of process ``pid``'s threads (it exited or restarted)."""
+        for key in [k for k in self._fds if k[0] == pid]:
+            with contextlib.suppress(OSError):
+                os.close(self._fds.pop(key))
+
+    def close(self) -> None:
+        for pid in {k[0] for k in self._fds}:
+            self.forget(pid)
 
 
 def pid_alive(pid: int) -> bool:

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from hil import clock
-from hil.vtime.control import ControlBlock, ThreadView, asleep_in_kernel, pid_alive
+from hil.vtime.control import ControlBlock, ThreadStates, ThreadView, pid_alive
 
 POLLIN, POLLPRI, POLLOUT = select.POLLIN, select.POLLPRI, select.POLLOUT
 #: re-check pauses (wall s) while a futex waiter is on its way to sleep
@@ -110,6 +110,7 @@ class VirtualClock:
         #: check_idle found a thread that published a futex wait but is not asleep in the
         #: kernel yet: it sends no further notification when it gets there, so re-check soon
         self._settling = False
+        self._states = ThreadStates()  #: the kernel's view of futex-blocked threads
 
     # -- clock ------------------------------------------------------------------------------------
     def start(self, t_ns: int) -> None:
@@ -163,6 +164,7 @@ class VirtualClock:
     def process_gone(self, pid: int | None) -> None:
         if pid is not None:
             self.ctl.clear_process(pid)
+            self._states.forget(pid)
         self.poke()
 
     def next_deadline(self) -> int | None:
@@ -250,7 +252,7 @@ class VirtualClock:
                 self._wake(t)
                 return False
             if t.futex:
-                if t.tid < 0 or not asleep_in_kernel(t.pid, t.tid):
+                if t.tid < 0 or not self._states.asleep(t.pid, t.tid):
                     self._settling = True  # another thread just woke it, or it is about to sleep
                     return False
                 continue
@@ -324,6 +326,7 @@ class VirtualClock:
     def close(self) -> None:
         if not self._closed:
             self._closed = True
+            self._states.close()
             self._loop.remove_reader(self.ctl.notify_fd)
 
 
