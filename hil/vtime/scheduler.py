@@ -111,6 +111,12 @@ class VirtualClock:
         #: kernel yet: it sends no further notification when it gets there, so re-check soon
         self._settling = False
         self._states = ThreadStates()  #: the kernel's view of futex-blocked threads
+        #: anything that may end the flight code's idleness: a notification, a poke, a wake
+        self._events = 0
+        #: (events, port writes) when the flight code was last found idle, and the slots then:
+        #: while both are unchanged it is still idle and its slots are as they were
+        self._idle_at: tuple[int, tuple[int, ...]] | None = None
+        self._snapshot: list[ThreadView] = []
 
     # -- clock ------------------------------------------------------------------------------------
     def start(self, t_ns: int) -> None:
@@ -136,6 +142,7 @@ class VirtualClock:
         """The flight code process to schedule (after a start or restart)."""
         self.pid = pid
         self._woken.clear()
+        self._events += 1
 
     def attached(self) -> bool:
         return self.pid is not None and self.pid in self.ctl.attached_pids()
@@ -162,6 +169,8 @@ class VirtualClock:
         return True
 
     def process_gone(self, pid: int | None) -> None:
+        if self._closed:
+            return
         if pid is not None:
             self.ctl.clear_process(pid)
             self._states.forget(pid)
@@ -169,27 +178,29 @@ class VirtualClock:
 
     def next_deadline(self) -> int | None:
         """Bench time of the earliest deadline a blocked flight-code thread waits for."""
-        deadlines = [t.deadline_ns for t in self.ctl.threads() if t.blocked and t.deadline_ns is not None]
+        deadlines = [t.deadline_ns for t in self._threads() if t.blocked and t.deadline_ns is not None]
         return min(deadlines) - self.offset_ns if deadlines else None
 
     def wake_due(self) -> None:
         """End the waits whose deadline sim time has reached (each wait once)."""
         now = self.fc_ns(self.t_ns)
-        for t in self.ctl.threads():
+        for t in self._threads():
             if t.blocked and t.deadline_ns is not None and t.deadline_ns <= now:
                 self._wake(t)
 
     def _wake(self, t: ThreadView) -> None:
         if t.futex:
-            return  # ends on the host clock by itself (a futex cannot wait on our FIFO)
+            self._events += 1  # it ends on the host clock by itself (a futex cannot wait on our
+            return  # FIFO): whatever was found idle before is not any more
         if self._woken.get(t.index) != t.seq:
             self._woken[t.index] = t.seq
+            self._events += 1
             self.ctl.wake(t.index)
 
     def cpu_ns(self) -> int:
         """CPU time the flight code used since the last call (all its threads, as each last
         published it when it blocked), ns of this host."""
-        total = sum(t.cpu_ns for t in self.ctl.threads() if t.pid == self.pid)
+        total = sum(t.cpu_ns for t in self._threads() if t.pid == self.pid)
         delta, self._cpu_last = total - self._cpu_last, total
         return max(delta, 0)
 
@@ -224,13 +235,29 @@ class VirtualClock:
 
     def poke(self) -> None:
         """Something changed that may end a wait for idle (a thread blocked, a process exited)."""
+        self._events += 1
         waiter = self._waiter
         if waiter is not None and not waiter.done():
             waiter.set_result(None)
 
+    def _port_writes(self) -> tuple[int, ...]:
+        return tuple(p.writes for p in self.ports.values())
+
+    def _still_idle(self) -> bool:
+        """Found idle, and nothing has happened since that could change it (no notification,
+        poke or wake, no byte written by the bench): the check need not be made again."""
+        return self._idle_at is not None and self._idle_at == (self._events, self._port_writes())
+
+    def _threads(self) -> list[ThreadView]:
+        """The slots: the snapshot of the last idle verdict while it holds, else read now."""
+        return self._snapshot if self._still_idle() else self.ctl.threads()
+
     def check_idle(self) -> bool:
         """One exact check (see the module docstring); never waits."""
         self._settling = False
+        if self._still_idle():
+            return True
+        self._idle_at = None
         threads = self.ctl.threads()
         mine = [t for t in threads if t.pid == self.pid]
         if not mine:
@@ -273,7 +300,12 @@ class VirtualClock:
             r, w, _ = select.select(readable, writable, [], 0)
             if r or w:
                 return False  # it is waking up (or about to) on bytes already there
-        return all(self.ctl.seq(t.index) == t.seq for t in threads)
+        if not all(self.ctl.seq(t.index) == t.seq for t in threads):
+            return False
+        if not any(t.futex and t.deadline_ns is not None for t in threads):
+            # a timed futex wait ends on the host clock without telling anyone: never cached
+            self._idle_at, self._snapshot = (self._events, self._port_writes()), threads
+        return True
 
     async def idle(self, running: Callable[[], bool]) -> bool:
         """Wait until the flight code is idle; False if it is not running (exited, killed).
