@@ -85,6 +85,7 @@ class RunLogger:
         self.telemetry = TelemetryDecoder()
         self._last_cmd_us: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
         self._lat_i = 0
+        self._adc: list[Any] = []  # this tick's Mcp3204Conversion events
         trace.define(
             "truth",
             {
@@ -145,19 +146,9 @@ class RunLogger:
             # items the configured output does not carry are left out, not null
             rec.log("/hil/imu/sample", ev.t_ns, {k: v for k, v in sample.items() if v is not None}, t_host)
         elif name == "Mcp3204Conversion":
-            rec.log(
-                "/hil/adc/conversion",
-                ev.t_ns,
-                {
-                    "t_ns": ev.t_ns,
-                    "channel": ev.channel,  # type: ignore[attr-defined]
-                    "single_ended": ev.single_ended,  # type: ignore[attr-defined]
-                    "code": ev.code,  # type: ignore[attr-defined]
-                    "volts": ev.volts,  # type: ignore[attr-defined]
-                    "vref_V": ev.vref_V,  # type: ignore[attr-defined]
-                },
-                t_host,
-            )
+            # one message per tick holds the tick's conversions (after_tick): a message per
+            # conversion cost more in record overhead than the conversion itself
+            self._adc.append(ev)
         else:
             detail = _jsonable(ev)
             detail.pop("t_ns", None)
@@ -245,6 +236,9 @@ class RunLogger:
                         t_host,
                     )
                 self._lat_i = len(d.latency)
+            if self._adc:
+                rec.log("/hil/adc/conversion", self._adc[0].t_ns, _adc_payload(self._adc), t_host)
+                self._adc = []
             if k % self.counters_divider == 0:
                 rec.log("/hil/device/counters", t_ns, {"t_ns": t_ns, "counters": self.counters()}, t_host)
             rec.flush()
@@ -310,6 +304,22 @@ def _truth_payload(t_ns: int, st: Any) -> dict[str, Any]:
         "wind_N_mps": list(st.wind_N_mps),
         "mass_kg": st.mass_kg,
     }
+
+
+def _adc_payload(conversions: list[Any]) -> dict[str, Any]:
+    """``hil.AdcConversions`` of a tick's ``Mcp3204Conversion`` events (in the order answered)."""
+    t0 = conversions[0].t_ns
+    out: dict[str, Any] = {
+        "t_ns": t0,
+        "channel": [c.channel for c in conversions],
+        "code": [c.code for c in conversions],
+        "volts": [c.volts for c in conversions],
+        "single_ended": [c.single_ended for c in conversions],
+        "vref_V": [c.vref_V for c in conversions],
+    }
+    if any(c.t_ns != t0 for c in conversions):
+        out["dt_ns"] = [c.t_ns - t0 for c in conversions]
+    return out
 
 
 def _esc_output(t_ns: int, throttle: tuple[float, ...], armed: tuple[float, ...]) -> dict[str, Any]:

@@ -3,19 +3,21 @@
 Run: ``.venv/bin/python tests/bench/mcap_footprint.py LOG.mcap [LOG2.mcap ...]``
 
 Per topic: messages, rate, payload bytes (uncompressed message data), and the estimated
-share of the file. The share splits each chunk's compressed size over its topics in
-proportion to their uncompressed record bytes (payload + the 31-byte message record header),
-and adds the 16-byte message-index entry each message costs outside the chunks (when the
-file has message indexes). The flight minute is the span of ``/hil/timing/tick`` (else of
+share of the file. The share of a chunk's compressed size is each topic's marginal cost
+(the chunk's records zstd-compressed with and without the topic's records), scaled so the
+shares add up to the chunk's real compressed size; plus the 16-byte message-index entry each
+message costs outside the chunks (when the file has message indexes). The flight minute is the span of ``/hil/timing/tick`` (else of
 every message) in log time.
 """
 
 from __future__ import annotations
 
+import struct
 import sys
 from collections import Counter, defaultdict
 from pathlib import Path
 
+import zstandard
 from mcap.records import Chunk, Message, MessageIndex
 from mcap.stream_reader import StreamReader, breakup_chunk
 
@@ -40,6 +42,7 @@ def footprint(path: Path) -> dict[str, object]:
                 topics[rec.id] = rec.topic  # type: ignore[attr-defined]
             elif isinstance(rec, Chunk):
                 raw: Counter[str] = Counter()
+                records: defaultdict[str, list[bytes]] = defaultdict(list)
                 for inner in breakup_chunk(rec, validate_crc=False):
                     if hasattr(inner, "topic") and hasattr(inner, "message_encoding"):
                         topics[inner.id] = inner.topic  # type: ignore[attr-defined]
@@ -48,12 +51,18 @@ def footprint(path: Path) -> dict[str, object]:
                         count[topic] += 1
                         payload[topic] += len(inner.data)
                         raw[topic] += _MSG_HEADER + len(inner.data)
+                        records[topic].append(struct.pack("<HIQQ", inner.channel_id, inner.sequence, inner.log_time,
+                                                          inner.publish_time) + inner.data)
                         t_min[topic] = min(t_min.get(topic, inner.log_time), inner.log_time)
                         t_max[topic] = max(t_max.get(topic, inner.log_time), inner.log_time)
-                total = sum(raw.values()) or 1
                 compressed = len(rec.data) + 8 * 4 + 4 + len(rec.compression)
-                for topic, n in raw.items():
-                    share[topic] += compressed * n / total
+                order = [t for t in records]
+                whole = len(zstandard.compress(b"".join(b"".join(records[t]) for t in order)))
+                marginal = {t: max(1, whole - len(zstandard.compress(b"".join(b"".join(records[u]) for u in order if u != t))))
+                            for t in order}
+                total = sum(marginal.values())
+                for topic, m in marginal.items():
+                    share[topic] += compressed * m / total
     if indexed:
         for topic, n in count.items():
             share[topic] += _INDEX_ENTRY * n
