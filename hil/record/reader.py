@@ -19,6 +19,7 @@ A file without a footer (a killed run, usually ``*.mcap.part``) raises
 from __future__ import annotations
 
 import base64
+import heapq
 import json
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
@@ -176,6 +177,27 @@ def iter_messages(path: Path | str, topics: Iterable[str] | None = None, *,
             else:
                 for log_time, item in expander(message.log_time, msg):
                     yield channel.topic, log_time, item
+
+
+def iter_wire(path: Path | str, topics: Iterable[str]) -> Iterator[tuple[str, int, dict[str, Any]]]:
+    """Wire chunks of ``topics`` merged across topics in chunk log-time order (ties keep the
+    topics' order). ``iter_messages`` orders wire messages by their first chunk, and one
+    message holds up to 100 ms of a wire: a replay of several ports needs this instead."""
+    def keyed(i: int, topic: str) -> Iterator[tuple[tuple[int, int, int], tuple[str, int, dict[str, Any]]]]:
+        for n, (t, lt, msg) in enumerate(iter_messages(path, [topic])):
+            yield (lt, i, n), (t, lt, msg)
+
+    merged = heapq.merge(*(keyed(i, t) for i, t in enumerate(topics)), key=lambda x: x[0])
+    for _, item in merged:
+        yield item
+
+
+def chunk_counts(path: Path | str) -> dict[str, int]:
+    """Transport reads/writes per wire topic (the ``chunks.<topic>`` summary counts of the
+    compact format; one per message in JSON-era logs)."""
+    counts = message_counts(path)
+    summary = read_metadata(path).get("summary", {})
+    return {t: int(summary.get(f"chunks.{t}", n)) for t, n in counts.items() if t.startswith("/hil/wire/")}
 
 
 def _flatten(d: dict[str, Any], prefix: str, out: dict[str, Any]) -> None:
