@@ -44,6 +44,7 @@ import orjson
 from mcap.data_stream import RecordBuilder
 from mcap.records import Channel, Schema
 from mcap.well_known import MessageEncoding, SchemaEncoding
+import mcap.writer as _mcap_writer
 from mcap.writer import CompressionType, Writer
 
 import hil
@@ -71,6 +72,29 @@ _YIELD_EVERY = 8
 _YIELD_S = 20e-6
 _STOP = object()
 _MESSAGE_OVERHEAD = 31  # opcode 1 + length 8 + channel id 2 + sequence 4 + log time 8 + publish time 8
+#: zstd level of the chunks. mcap-python compresses with zstandard's default (3) and has no
+#: option; level 6 makes a run's file 4 % smaller for +0.2 ms per 64 KiB chunk, on the
+#: recorder's own process (measured on a 48 s mission: 5.88 -> 5.66 MB of chunks; level 15
+#: gains 5 % more at 10x the CPU).
+ZSTD_LEVEL = 6
+
+
+class _LeveledZstd:
+    """Stands in for the ``zstandard`` module inside ``mcap.writer`` (it only calls
+    ``compress``): the same function at ``ZSTD_LEVEL``. Thread-safe (no shared compressor)."""
+
+    def __init__(self, module: Any) -> None:
+        self._module = module
+
+    def compress(self, data: bytes) -> bytes:
+        return self._module.compress(data, ZSTD_LEVEL)  # type: ignore[no-any-return]
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._module, name)
+
+
+if getattr(_mcap_writer, "zstandard", None) is not None and not isinstance(_mcap_writer.zstandard, _LeveledZstd):
+    _mcap_writer.zstandard = _LeveledZstd(_mcap_writer.zstandard)
 
 
 def _record_size(record: Schema | Channel) -> int:

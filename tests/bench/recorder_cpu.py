@@ -1,0 +1,81 @@
+"""CPU of each process of a ``hil run`` (not a test): bench, recorder child, flight code.
+
+Run: ``.venv/bin/python tests/bench/recorder_cpu.py [hil run arguments ...]``
+(e.g. ``--out /tmp/logs -q``). Starts ``hil run`` with the arguments, samples
+``/proc/<pid>/stat`` of the bench and all its descendants every 50 ms, and prints each
+process's user+system CPU seconds at its last sample, with the CPU per tick (the tick count
+from the run's summary table, 400 per sim second). The recorder child is the descendant
+whose command line is the bench's own (a fork); the flight code is ``-m flightcode``.
+A process's last sample can be up to 50 ms before it exits: CPU is a slight undercount.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+_TICKS_PER_S = os.sysconf("SC_CLK_TCK")
+
+
+def _stat(pid: int) -> tuple[int, float] | None:
+    """(parent pid, user+system CPU seconds) of ``pid``; None if it is gone."""
+    try:
+        raw = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    fields = raw[raw.rindex(")") + 2 :].split()
+    return int(fields[1]), (int(fields[11]) + int(fields[12])) / _TICKS_PER_S
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace").strip()
+    except OSError:
+        return ""
+
+
+def main(argv: list[str]) -> int:
+    hil = str(Path(sys.executable).with_name("hil"))
+    proc = subprocess.Popen([hil, "run", *argv], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    cpu: dict[int, float] = {}
+    cmd: dict[int, str] = {}
+    while proc.poll() is None:
+        parents: dict[int, int] = {}
+        for entry in os.listdir("/proc"):
+            if entry.isdigit():
+                st = _stat(int(entry))
+                if st is not None:
+                    parents[int(entry)] = st[0]
+        family = {proc.pid}
+        grew = True
+        while grew:
+            grew = False
+            for pid, ppid in parents.items():
+                if ppid in family and pid not in family:
+                    family.add(pid)
+                    grew = True
+        for pid in family:
+            st = _stat(pid)
+            if st is not None:
+                cpu[pid] = st[1]
+                cmd.setdefault(pid, _cmdline(pid))
+        time.sleep(0.05)
+    out = proc.stdout.read() if proc.stdout else ""
+    m = re.search(r"ticks\s*│\s*([0-9.e+]+)", out)
+    ticks = float(m.group(1)) if m else 0.0
+    bench_cmd = cmd.get(proc.pid, "")
+    print(f"exit {proc.returncode}; ticks {ticks:g}")
+    for pid in sorted(cpu):
+        role = ("bench" if pid == proc.pid else "recorder" if cmd[pid] == bench_cmd
+                else "flight code" if "flightcode" in cmd[pid] else "other")
+        per_tick = f"{cpu[pid] / ticks * 1e6:8.1f} us/tick" if ticks else ""
+        print(f"  {role:<12} pid {pid:>7} cpu {cpu[pid]:7.2f} s {per_tick}  {cmd[pid][:60]}")
+    return proc.returncode
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))
