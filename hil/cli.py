@@ -31,6 +31,7 @@ app = typer.Typer(
 )
 console = Console()
 err_console = Console(stderr=True)
+_MODES = ("lockstep", "realtime")  #: hil.bench.Mode values (not imported here: start-up time)
 
 
 def _fail(message: str, code: int = 2) -> None:
@@ -52,22 +53,28 @@ def run(
     stress_adc_delay_us: Annotated[float, typer.Option(help="Timing stress: hold every ADC bridge reply back (wall us).")] = 0.0,
 ) -> None:
     """Fly the flight code against the emulated vehicle and write one MCAP log."""
-    from hil.bench import Mode
+    from hil import clock
+
+    started_ns = clock.process_start_monotonic_ns()
+    # Argument errors first, before the bench's imports (numpy, the plant, the emulators,
+    # the recorder): an error must answer in well under half a second.
+    if mode not in _MODES:
+        _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
     from hil.config import ConfigError
     from hil.rig import load_rig
-    from hil.run import run_flight_async
     from hil.scenario import load_scenario
-    from hil.summary import print_summary
 
     try:
         rig_obj = load_rig(rig)
         source = rig_obj.scenario_path(scenario)
         scenario_obj = load_scenario(source)
-        run_mode = Mode(mode)
     except ConfigError as exc:
         _fail(str(exc))
-    except ValueError:
-        _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
+    from hil.bench import Mode
+    from hil.run import run_flight_async
+    from hil.summary import print_summary
+
+    run_mode = Mode(mode)
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -84,8 +91,6 @@ def run(
     )
 
     async def main() -> object:
-        from hil import clock
-
         task = progress.add_task(f"{rig_obj.name}/{scenario_obj.name}", total=1.0, sim="", rtf="-", phase="boot")
         start = {"wall": 0}
 
@@ -120,6 +125,7 @@ def run(
                 scenario_source=source,
                 stress_cpu=stress_cpu,
                 stress_adc_delay_us=stress_adc_delay_us,
+                started_ns=started_ns,
             )
         finally:
             loop.remove_signal_handler(signal.SIGINT)

@@ -186,11 +186,14 @@ async def run_flight_async(
     stress_cpu: int = 0,
     stress_adc_delay_us: float = 0.0,
     virtual_time: bool | None = None,
+    started_ns: int | None = None,
 ) -> RunResult:
     """Run one flight (see module docstring). Never raises for run-time failures.
 
     ``virtual_time``: lockstep on sim time through the clock shim (None: the rig's
-    ``[flight] virtual_time``, on by default); False runs lockstep on the host clock."""
+    ``[flight] virtual_time``, on by default); False runs lockstep on the host clock.
+    ``started_ns``: host monotonic instant the run was asked for (``hil run`` passes its process
+    start): the timing figures then include ``start_to_tick0_s``, the wall time to tick 0."""
     # The recorder's writer thread must not hold the GIL for the default 5 ms while the
     # tick waits on a pty (hil/record measurements: wake-ups 2.2 ms late otherwise).
     sys.setswitchinterval(SWITCH_INTERVAL_S)
@@ -323,6 +326,8 @@ async def run_flight_async(
             vt.close()
         clock_note = loop.fallback_reason or clock_note
         timing = _timing_summary(loop, rig.tick_ns, trace, rig.flight.cpu_scale)
+        if started_ns is not None and loop.stats.wall_start_ns:
+            timing["start_to_tick0_s"] = (loop.stats.wall_start_ns - started_ns) / 1e9
         criteria = evaluate(scenario.criteria, trace) if end is EndReason.COMPLETED else []
         timing_criteria = runner.timing_criteria(timing, logger)
         criteria += timing_criteria

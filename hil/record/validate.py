@@ -18,7 +18,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import jsonschema
 from mcap.reader import make_reader
 from mcap.records import Channel, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
@@ -56,7 +55,7 @@ def _reject_constant(token: str) -> float:
     raise ValueError(f"non-standard JSON token {token}")
 
 
-def _is_null_number(err: jsonschema.ValidationError) -> bool:
+def _is_null_number(err: Any) -> bool:  # a jsonschema.ValidationError
     return err.validator == "type" and err.instance is None and err.validator_value in ("number", "integer")
 
 
@@ -67,10 +66,12 @@ def _jsonable(msg: dict[str, Any]) -> dict[str, Any]:
 
 def validate(path: Path | str, *, schemas: bool = True) -> Validation:
     """Validate ``path``; never raises for a bad file (see ``Validation.problems``)."""
+    import jsonschema  # here, not at module level: ``hil`` start-up time (hil.record imports this module)
+
     v = Validation()
     schema_recs: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
-    validators: dict[int, jsonschema.protocols.Validator] = {}
+    validators: dict[int, Any] = {}  # jsonschema validators
     decoders: dict[int, Callable[[bytes], dict[str, Any]]] = {}
     restamp: dict[int, Callable[[dict[str, Any], int, int], dict[str, Any]]] = {}
     run_start = 0
