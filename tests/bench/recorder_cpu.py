@@ -7,6 +7,11 @@ process's user+system CPU seconds at its last sample, with the CPU per tick (the
 from the run's summary table, 400 per sim second). The recorder child is the descendant
 whose command line is the bench's own (a fork); the flight code is ``-m flightcode``.
 A process's last sample can be up to 50 ms before it exits: CPU is a slight undercount.
+
+Also printed: launch -> tick 0, from this script's monotonic clock at launch to the host time
+the bench wrote IMU sample 0 (``imu_emit_host_ns`` of the first ``/hil/timing/tick`` message
+at t_ns 0, read from the run's log: works for logs of any format); and the ``start_to_tick0_s``
+figure of the run's summary table where the bench prints it.
 """
 
 from __future__ import annotations
@@ -40,6 +45,7 @@ def _cmdline(pid: int) -> str:
 
 def main(argv: list[str]) -> int:
     hil = str(Path(sys.executable).with_name("hil"))
+    launched_ns = time.monotonic_ns()
     proc = subprocess.Popen([hil, "run", *argv], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     cpu: dict[int, float] = {}
     cmd: dict[int, str] = {}
@@ -69,6 +75,16 @@ def main(argv: list[str]) -> int:
     ticks = float(m.group(1)) if m else 0.0
     bench_cmd = cmd.get(proc.pid, "")
     print(f"exit {proc.returncode}; ticks {ticks:g}")
+    log = re.search(r"^log: (\S+\.mcap)", out, re.M)
+    if log:
+        from hil.record import iter_messages
+
+        first = next((m for _, _, m in iter_messages(log.group(1), ["/hil/timing/tick"]) if m["t_ns"] >= 0), None)
+        if first is not None:
+            print(f"  launch -> tick 0 (IMU sample 0 written): {(first['imu_emit_host_ns'] - launched_ns) / 1e9:.2f} s")
+    m0 = re.search(r"start_to_tick0_s\s*│\s*([0-9.e+]+)", out)
+    if m0:
+        print(f"  start_to_tick0_s (the run's own figure): {m0.group(1)} s")
     for pid in sorted(cpu):
         role = ("bench" if pid == proc.pid else "recorder" if cmd[pid] == bench_cmd
                 else "flight code" if "flightcode" in cmd[pid] else "other")
