@@ -68,7 +68,7 @@ def main(argv: list[str]) -> int:
             st = _stat(pid)
             if st is not None:
                 cpu[pid] = st[1]
-                cmd.setdefault(pid, _cmdline(pid))
+                cmd[pid] = _cmdline(pid) or cmd.get(pid, "")  # the latest: a fork execs after its first sample
         time.sleep(0.05)
     out = proc.stdout.read() if proc.stdout else ""
     m = re.search(r"ticks\s*│\s*([0-9.e+]+)", out)
