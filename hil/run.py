@@ -38,6 +38,7 @@ from hil.runlog import RunLogger
 from hil.scenario import Scenario, load_scenario
 from hil.scenario_runner import ScenarioRunner
 from hil.stress import CpuHog
+from hil.timing import StreamingStats
 from hil.trace import Trace
 from hil.transport.pty import PtyPort
 from hil.vtime.preload import Fallback
@@ -105,13 +106,17 @@ def write_flight_config(rig: Rig, scenario: Scenario, ports: dict[str, PtyPort],
     return path
 
 
-def _percentiles(prefix: str, values_us: np.ndarray) -> dict[str, float]:
-    if values_us.size == 0:
+def _percentiles(prefix: str, values: StreamingStats | np.ndarray, scale: float = 1.0) -> dict[str, float]:
+    """p50/p99/max of ``values`` times ``scale`` (streamed stats or an array)."""
+    if len(values) == 0:
         return {}
+    if isinstance(values, StreamingStats):
+        return {f"{prefix}_p50_us": values.percentile(50) * scale, f"{prefix}_p99_us": values.percentile(99) * scale,
+                f"{prefix}_max_us": values.max * scale}
     return {
-        f"{prefix}_p50_us": float(np.percentile(values_us, 50)),
-        f"{prefix}_p99_us": float(np.percentile(values_us, 99)),
-        f"{prefix}_max_us": float(values_us.max()),
+        f"{prefix}_p50_us": float(np.percentile(values, 50)) * scale,
+        f"{prefix}_p99_us": float(np.percentile(values, 99)) * scale,
+        f"{prefix}_max_us": float(values.max()) * scale,
     }
 
 
@@ -131,24 +136,19 @@ def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None, cp
         "late_ticks": float(st.late_ticks),
         "esc_commands": float(st.esc_commands),
     }
-    samples = loop.devices.latency
-    host = np.asarray([s.t_arrival_host_ns - s.t_emit_host_ns for s in samples if s.t_arrival_host_ns is not None])
+    lat = loop.devices.latency_stats  # streamed: every sample's figures, bounded memory
     virtual = st.clock is Clock.VIRTUAL
-    out |= _percentiles("latency", np.asarray(st.latencies_ns) / 1e3)
-    out |= _percentiles("host_latency", host / 1e3)
+    out |= _percentiles("latency", st.latencies_ns, 1e-3)
+    out |= _percentiles("host_latency", lat.host_latency_ns, 1e-3)
     if st.tick_cost_ns:
-        cost = np.asarray(st.tick_cost_ns) / 1e3
-        out |= {"bench_cost_p50_us": float(np.percentile(cost, 50)), "bench_cost_p99_us": float(np.percentile(cost, 99))}
+        cost = st.tick_cost_ns
+        out |= {"bench_cost_p50_us": cost.percentile(50) / 1e3, "bench_cost_p99_us": cost.percentile(99) / 1e3}
+    arrivals = lat.sim_period if virtual else lat.host_period
+    if len(arrivals.period) > 1:
+        out |= {"period_p50_us": arrivals.period.percentile(50) / 1e3,
+                "period_jitter_p99_us": arrivals.jitter.percentile(99) / 1e3}
     if virtual:
-        arrivals = np.asarray([s.t_arrival_ns for s in samples if s.t_arrival_ns is not None])
-    else:
-        arrivals = np.asarray([s.t_arrival_host_ns for s in samples if s.t_arrival_host_ns is not None])
-    if arrivals.size > 2:
-        period = np.diff(arrivals) / 1e3
-        jitter = np.abs(period - tick_ns / 1e3)
-        out |= {"period_p50_us": float(np.percentile(period, 50)), "period_jitter_p99_us": float(np.percentile(jitter, 99))}
-    if virtual:
-        out |= _percentiles("fc_compute", np.asarray(st.fc_cpu_ns) * cpu_scale / 1e3)
+        out |= _percentiles("fc_compute", st.fc_cpu_ns, cpu_scale / 1e3)
         out["boot_sim_s"] = st.boot_sim_ns / 1e9
     elif trace is not None:
         try:
@@ -157,7 +157,7 @@ def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None, cp
             compute = np.zeros(0)
         out |= _percentiles("fc_compute", compute[np.isfinite(compute)])
     if st.lateness_ns:
-        out |= _percentiles("lateness", np.asarray(st.lateness_ns) / 1e3)
+        out |= _percentiles("lateness", st.lateness_ns, 1e-3)
     return out
 
 

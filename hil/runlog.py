@@ -84,7 +84,6 @@ class RunLogger:
         self.fc_lines = 0
         self.telemetry = TelemetryDecoder()
         self._last_cmd_us: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
-        self._lat_i = 0
         self._adc: list[Any] = []  # this tick's Mcp3204Conversion events
         trace.define(
             "truth",
@@ -203,6 +202,32 @@ class RunLogger:
                 if rec is not None:
                     rec.log("/hil/rc/pulses", frame.t_ns, {"t_ns": frame.t_ns, "pulse_us": pulses, "present": True}, t_host)  # type: ignore[attr-defined]
             d.rc_frames.clear()
+        if d.latency:
+            # taken every tick, recorded or not: the list holds one tick's samples, never the
+            # run's (the run's figures are streamed in d.latency_stats)
+            pending, d.latency = d.latency, []
+            for lat in pending if rec is not None else ():  # (rec is not None inside)
+                arrival = lat.t_arrival_host_ns
+                host_us = (arrival - lat.t_emit_host_ns) / 1e3 if arrival is not None else -1.0
+                if lat.t_arrival_ns is not None:
+                    latency_us = (lat.t_arrival_ns - lat.t_ns) / 1e3
+                else:
+                    latency_us = host_us if lat.fc_cpu_ns is None else -1.0
+                rec.log(  # type: ignore[union-attr]
+                    "/hil/timing/tick",
+                    lat.t_ns,
+                    {
+                        "k": lat.t_ns // self.rig.tick_ns,
+                        "t_ns": lat.t_ns,
+                        "imu_emit_host_ns": lat.t_emit_host_ns,
+                        "esc_arrival_host_ns": arrival if arrival is not None else -1,
+                        "latency_us": latency_us,
+                        "host_latency_us": host_us,
+                        "fc_cpu_us": lat.fc_cpu_ns / 1e3 if lat.fc_cpu_ns is not None else -1.0,
+                        "miss": arrival is None,
+                    },
+                    t_host,
+                )
         if rec is not None:
             # PlantState is immutable: its payloads are built on the writer thread
             if k % self.truth_divider == 0:
@@ -212,30 +237,6 @@ class RunLogger:
                 stamp = divmod(self.run_start_unix_ns + t_ns, 1_000_000_000)
                 rec.log("/tf", t_ns, partial(_tf_payload, stamp, st), t_host)
                 rec.log("/sim/pose", t_ns, partial(_pose_payload, stamp, st), t_host)
-            if len(d.latency) > self._lat_i:
-                for lat in d.latency[self._lat_i :]:
-                    arrival = lat.t_arrival_host_ns
-                    host_us = (arrival - lat.t_emit_host_ns) / 1e3 if arrival is not None else -1.0
-                    if lat.t_arrival_ns is not None:
-                        latency_us = (lat.t_arrival_ns - lat.t_ns) / 1e3
-                    else:
-                        latency_us = host_us if lat.fc_cpu_ns is None else -1.0
-                    rec.log(
-                        "/hil/timing/tick",
-                        lat.t_ns,
-                        {
-                            "k": lat.t_ns // self.rig.tick_ns,
-                            "t_ns": lat.t_ns,
-                            "imu_emit_host_ns": lat.t_emit_host_ns,
-                            "esc_arrival_host_ns": arrival if arrival is not None else -1,
-                            "latency_us": latency_us,
-                            "host_latency_us": host_us,
-                            "fc_cpu_us": lat.fc_cpu_ns / 1e3 if lat.fc_cpu_ns is not None else -1.0,
-                            "miss": arrival is None,
-                        },
-                        t_host,
-                    )
-                self._lat_i = len(d.latency)
             if self._adc:
                 rec.log("/hil/adc/conversion", self._adc[0].t_ns, _adc_payload(self._adc), t_host)
                 self._adc = []

@@ -1,10 +1,11 @@
-"""CPU of each process of a ``hil run`` (not a test): bench, recorder child, flight code.
+"""CPU and memory of each process of a ``hil run`` (not a test): bench, recorder child, flight code.
 
 Run: ``.venv/bin/python tests/bench/recorder_cpu.py [hil run arguments ...]``
 (e.g. ``--out /tmp/logs -q``). Starts ``hil run`` with the arguments, samples
 ``/proc/<pid>/stat`` of the bench and all its descendants every 50 ms, and prints each
 process's user+system CPU seconds at its last sample, with the CPU per tick (the tick count
-from the run's summary table, 400 per sim second). The recorder child is the descendant
+from the run's summary table, 400 per sim second), and the largest resident set size seen
+(VmRSS, sampled: the peak between samples can be missed). The recorder child is the descendant
 whose command line is the bench's own (a fork); the flight code is ``-m flightcode``.
 A process's last sample can be up to 50 ms before it exits: CPU is a slight undercount.
 
@@ -36,6 +37,16 @@ def _stat(pid: int) -> tuple[int, float] | None:
     return int(fields[1]), (int(fields[11]) + int(fields[12])) / _TICKS_PER_S
 
 
+def _rss_kb(pid: int) -> int:
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    except OSError:
+        pass
+    return 0
+
+
 def _cmdline(pid: int) -> str:
     try:
         return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace").strip()
@@ -49,6 +60,7 @@ def main(argv: list[str]) -> int:
     proc = subprocess.Popen([hil, "run", *argv], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     cpu: dict[int, float] = {}
     cmd: dict[int, str] = {}
+    rss: dict[int, int] = {}
     while proc.poll() is None:
         parents: dict[int, int] = {}
         for entry in os.listdir("/proc"):
@@ -68,6 +80,7 @@ def main(argv: list[str]) -> int:
             st = _stat(pid)
             if st is not None:
                 cpu[pid] = st[1]
+                rss[pid] = max(rss.get(pid, 0), _rss_kb(pid))
                 cmd[pid] = _cmdline(pid) or cmd.get(pid, "")  # the latest: a fork execs after its first sample
         time.sleep(0.05)
     out = proc.stdout.read() if proc.stdout else ""
@@ -89,7 +102,8 @@ def main(argv: list[str]) -> int:
         role = ("bench" if pid == proc.pid else "recorder" if cmd[pid] == bench_cmd
                 else "flight code" if "flightcode" in cmd[pid] else "other")
         per_tick = f"{cpu[pid] / ticks * 1e6:8.1f} us/tick" if ticks else ""
-        print(f"  {role:<12} pid {pid:>7} cpu {cpu[pid]:7.2f} s {per_tick}  {cmd[pid][:60]}")
+        print(f"  {role:<12} pid {pid:>7} cpu {cpu[pid]:7.2f} s {per_tick}  max RSS {rss.get(pid, 0) / 1024:6.1f} MB"
+              f"  {cmd[pid][:60]}")
     return proc.returncode
 
 
