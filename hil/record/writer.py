@@ -345,6 +345,7 @@ class Recorder:
         self._chunk_messages = 0
         self._close_error: RecordWriteError | None = None
         self._latest_t_ns = -(1 << 62)  # latest wire chunk's sim time (closes stale wire batches)
+        self._swept_t_ns = -(1 << 62)
 
     # ---- life cycle ------------------------------------------------------------------------
     def _check(self, action: str) -> _State:
@@ -544,6 +545,9 @@ class Recorder:
                 route.wire.append((t_ns, int(t_host_ns), payload))
                 route.wire_bytes += len(payload)
                 route.chunks += 1
+                if t_ns - self._swept_t_ns >= WIRE_BATCH_NS:  # wire logged outside tick batches too
+                    self._swept_t_ns = t_ns
+                    self._flush_wire(t_ns)
             else:
                 self._emit(route, t_ns, t_host_ns, payload, complete=True)
                 if kind is _Kind.TRUTH:

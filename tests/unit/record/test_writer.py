@@ -26,6 +26,7 @@ from hil.record import (
     read_attachments,
     read_metadata,
     read_topic,
+    read_wire,
 )
 from hil.record.topics import TOPICS, WIRE_BATCH_BYTES, Encoding
 from hil.record.validate import validate
@@ -355,3 +356,19 @@ def test_bad_truth_and_bad_times_do_not_kill_the_writer(tmp_path: Path) -> None:
     assert stats.dropped_by_topic == {"/tf": 1, "/sim/pose": 1, "/hil/events": 1}
     summary = read_metadata(rec.path)["summary"]
     assert summary["error./tf"].startswith("KeyError") and summary["unencodable./hil/events"] == "1"
+
+
+def test_a_quiet_wire_is_written_within_a_batch_of_sim_time(tmp_path: Path) -> None:
+    # the boot exchange on imu/rx must not wait in the writer until close (a killed run would lose it)
+    rec = _new(tmp_path / "r.mcap")
+    with rec:
+        rec.log_wire("imu", "rx", -1_000_000, 1, b"\xfa\xff\x30\x00\xd1")
+        for k in range(100):  # 250 ms of another wire
+            rec.log_wire("imu", "tx", k * 2_500_000, 2 + k, b"\xfa")
+    with rec.path.open("rb") as f:  # file order is write order
+        order = [r.channel_id for r in StreamReader(f).records if isinstance(r, Message)]
+    channels = {t: r.channel_id for t, r in rec._routes.items()}
+    tx = [i for i, c in enumerate(order) if c == channels["/hil/wire/imu/tx"]]
+    assert len(tx) == 3 and order.index(channels["/hil/wire/imu/rx"]) < tx[-1]  # not held until close
+    assert rec.close().chunks_by_topic == {"/hil/wire/imu/rx": 1, "/hil/wire/imu/tx": 100}
+    assert read_wire(rec.path, "imu", "rx") == b"\xfa\xff\x30\x00\xd1"
