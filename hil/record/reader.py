@@ -61,9 +61,6 @@ def _open(path: Path | str) -> tuple[IO[bytes], McapReader]:
         raise
 
 
-Decoded = dict[str, Any]
-
-
 def _decoder(schema: Schema | None, message_encoding: str) -> Callable[[bytes], dict[str, Any]]:
     if message_encoding == MessageEncoding.Protobuf:
         if schema is None or not schema.data:
