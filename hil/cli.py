@@ -34,6 +34,7 @@ app = typer.Typer(
 )
 console = Console()
 err_console = Console(stderr=True)
+_MODES = ("lockstep", "realtime")  #: hil.bench.Mode values (not imported here: start-up time)
 
 
 def parse_attach_flags(flags: list[str]) -> dict[str, str]:
@@ -69,28 +70,32 @@ def run(
     run did not complete (flight code exited, boot failed, interrupted); 2 bad input (rig,
     scenario, option, a fault the rig refuses): nothing was started.
     """
-    from hil.bench import Mode
+    from hil import clock
+
+    started_ns = clock.process_start_monotonic_ns()
+    # Argument errors first, before the bench's imports (numpy, the plant, the emulators,
+    # the recorder): an error must answer in well under half a second.
+    if mode not in _MODES:
+        _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
     from hil.config import ConfigError
     from hil.progress import PlainProgress
     from hil.rig import load_rig
-    from hil.run import run_flight_async
     from hil.scenario import load_scenario
     from hil.scenario_runner import ScenarioRunner
-    from hil.summary import print_summary
 
     try:
         rig_obj = load_rig(rig)
         source = rig_obj.scenario_path(scenario)
         scenario_obj = load_scenario(source)
         ScenarioRunner(scenario_obj, rig_obj, source)  # faults and budgets against the rig, before anything starts
-        run_mode = Mode(mode)
     except ConfigError as exc:
         _fail(str(exc))
-    except ValueError:
-        _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
     from hil.attach import refuse_lockstep, resolve_attachments
-    from hil.run import PORTS
+    from hil.bench import Mode
+    from hil.run import PORTS, run_flight_async
+    from hil.summary import print_summary
 
+    run_mode = Mode(mode)
     try:
         attach_map = parse_attach_flags(attach or [])
         refuse_lockstep(resolve_attachments(rig_obj.ports, attach_map, PORTS, command="run"), run_mode.value)
@@ -114,8 +119,6 @@ def run(
     plain: PlainProgress | None = None
 
     async def main() -> object:
-        from hil import clock
-
         nonlocal plain
         label = f"{rig_obj.name}/{scenario_obj.name}"
         task = progress.add_task(label, total=1.0, sim="", rtf="-", phase="boot")
@@ -162,6 +165,7 @@ def run(
                 stress_cpu=stress_cpu,
                 stress_adc_delay_us=stress_adc_delay_us,
                 attach=attach_map,
+                started_ns=started_ns,
             )
         finally:
             loop.remove_signal_handler(signal.SIGINT)

@@ -7,6 +7,7 @@ for host monotonic time. Pacers for realtime mode live here too.
 from __future__ import annotations
 
 import asyncio
+import os
 import queue
 import threading
 import time
@@ -20,6 +21,16 @@ def monotonic_ns() -> int:
 def wall_ns() -> int:
     """Unix time in ns (only for the run's start stamp and file names)."""
     return time.time_ns()
+
+
+def process_start_monotonic_ns() -> int:
+    """When this process started, on the ``monotonic_ns`` time line (10 ms resolution: the
+    kernel counts a process's start in clock ticks since boot). For start-up figures."""
+    with open("/proc/self/stat", "rb") as f:
+        fields = f.read().rsplit(b")", 1)[1].split()
+    start_since_boot_ns = int(fields[19]) * 1_000_000_000 // os.sysconf("SC_CLK_TCK")
+    age_ns = time.clock_gettime_ns(time.CLOCK_BOOTTIME) - start_since_boot_ns
+    return time.monotonic_ns() - age_ns
 
 
 #: Sleep until this close to the deadline, then spin (limits.md §3: p99 < 1 us under RT,

@@ -20,6 +20,7 @@ from emulators.base import ByteDevice, DeviceEvent
 from hil import clock
 from hil.plant.plant import Plant
 from hil.rig import Rig
+from hil.timing import LatencyStats
 from hil.transport.base import LineSettings, Port
 
 GOTO_MEASUREMENT = 0x10  #: Xbus MID
@@ -121,7 +122,10 @@ class DeviceSet:
         #: to the client, ``rx(data, t_ns) -> bytes`` on the way to the device,
         #: ``poll(t_ns) -> bytes`` releases bytes held back (delay/jitter).
         self.wire_filters: dict[str, list[WireFilter]] = {}
+        #: samples not yet taken by the run logger (it empties this every tick); the figures of
+        #: every sample are in latency_stats, streamed (bounded memory however long the flight)
         self.latency: list[LatencySample] = []
+        self.latency_stats = LatencyStats(rig.tick_ns)
         self._rc_want: int | None = None
         #: timing stress: hold every ADC bridge reply back this long (wall ns; hil/stress.py)
         self.adc_reply_delay_ns = 0
@@ -324,6 +328,7 @@ class DeviceSet:
 
     def note_latency(self, sample: LatencySample) -> None:
         self.latency.append(sample)
+        self.latency_stats.add(sample)
 
     def finish_tick(self, t_ns: int) -> None:
         """Everything after the barrier: the radio link, slow devices, their outputs."""

@@ -36,7 +36,7 @@ import tomli_w
 from rich.console import Console
 
 from hil import clock
-from hil.record import iter_messages, message_counts, read_attachments, read_metadata
+from hil.record import chunk_counts, iter_messages, iter_wire, message_counts, read_attachments, read_metadata
 from hil.record.topics import WIRE_PORTS
 from hil.rundir import make_run_dir
 from hil.transport.base import LineSettings, WireRecord
@@ -55,7 +55,7 @@ class ReplayError(ValueError):
 
 def replay_ports(log: Path | str) -> dict[str, int]:
     """Ports with recorded device->client bytes in ``log``: port -> number of chunks."""
-    counts = message_counts(log)
+    counts = chunk_counts(log)
     out = {p: counts.get(f"/hil/wire/{p}/tx", 0) for p in WIRE_PORTS}
     return {p: n for p, n in out.items() if n > 0}
 
@@ -217,7 +217,7 @@ async def _play(log: Path, drains: dict[str, _Drain], per_port: dict[str, dict[s
     t0: int | None = None
     wall0 = clock.monotonic_ns()
     try:
-        for _topic, log_time, msg in iter_messages(log, topics):
+        for _topic, log_time, msg in iter_wire(log, topics):
             name = msg["port"]
             data: bytes = msg["data"]
             t_ns = int(msg.get("t_ns", log_time - run_start_ns))

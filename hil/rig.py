@@ -92,7 +92,7 @@ class FlightSection:
 @dataclass(frozen=True)
 class RecordSection:
     __pydantic_config__ = {"extra": "forbid"}
-    truth_divider: int = 1  #: /sim/truth every N ticks
+    truth_divider: int = 4  #: /sim/truth and /hil/esc/output every N ticks (100 Hz: the file budget, docs/recording.md)
     pose_divider: int = 8  #: /tf and /sim/pose every N ticks (50 Hz)
     counters_divider: int = 400  #: device counters every N ticks (1 Hz)
 

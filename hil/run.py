@@ -38,7 +38,7 @@ from hil.runlog import RunLogger
 from hil.scenario import Scenario, load_scenario
 from hil.scenario_runner import ScenarioRunner
 from hil.stress import CpuHog
-from hil.timing import REALTIME_MAX_LATE_US, compute_samples_us, realtime_verdict
+from hil.timing import REALTIME_MAX_LATE_US, StreamingStats, compute_samples_us, realtime_held
 from hil.trace import Trace
 from hil.transport.base import Port
 from hil.transport.pty import PtyPort
@@ -109,13 +109,17 @@ def write_flight_config(rig: Rig, scenario: Scenario, ports: Mapping[str, Port],
     return path
 
 
-def _percentiles(prefix: str, values_us: np.ndarray) -> dict[str, float]:
-    if values_us.size == 0:
+def _percentiles(prefix: str, values: StreamingStats | np.ndarray, scale: float = 1.0) -> dict[str, float]:
+    """p50/p99/max of ``values`` times ``scale`` (streamed stats or an array)."""
+    if len(values) == 0:
         return {}
+    if isinstance(values, StreamingStats):
+        return {f"{prefix}_p50_us": values.percentile(50) * scale, f"{prefix}_p99_us": values.percentile(99) * scale,
+                f"{prefix}_max_us": values.max * scale}
     return {
-        f"{prefix}_p50_us": float(np.percentile(values_us, 50)),
-        f"{prefix}_p99_us": float(np.percentile(values_us, 99)),
-        f"{prefix}_max_us": float(values_us.max()),
+        f"{prefix}_p50_us": float(np.percentile(values, 50)) * scale,
+        f"{prefix}_p99_us": float(np.percentile(values, 99)) * scale,
+        f"{prefix}_max_us": float(values.max()) * scale,
     }
 
 
@@ -135,42 +139,39 @@ def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None, cp
         "late_ticks": float(st.late_ticks),
         "esc_commands": float(st.esc_commands),
     }
-    samples = loop.devices.latency
-    host = np.asarray([s.t_arrival_host_ns - s.t_emit_host_ns for s in samples if s.t_arrival_host_ns is not None])
+    lat = loop.devices.latency_stats  # streamed: every sample's figures, bounded memory
     virtual = st.clock is Clock.VIRTUAL
-    out |= _percentiles("latency", np.asarray(st.latencies_ns) / 1e3)
-    out |= _percentiles("host_latency", host / 1e3)
+    out |= _percentiles("latency", st.latencies_ns, 1e-3)
+    out |= _percentiles("host_latency", lat.host_latency_ns, 1e-3)
     if st.tick_cost_ns:
-        cost = np.asarray(st.tick_cost_ns) / 1e3
-        out |= {"bench_cost_p50_us": float(np.percentile(cost, 50)), "bench_cost_p99_us": float(np.percentile(cost, 99))}
-    if virtual:
-        arrivals = np.asarray([s.t_arrival_ns for s in samples if s.t_arrival_ns is not None])
-    else:
-        arrivals = np.asarray([s.t_arrival_host_ns for s in samples if s.t_arrival_host_ns is not None])
-    if arrivals.size > 2:
-        period = np.diff(arrivals) / 1e3
-        jitter = np.abs(period - tick_ns / 1e3)
-        out |= {"period_p50_us": float(np.percentile(period, 50)), "period_jitter_p99_us": float(np.percentile(jitter, 99))}
+        cost = st.tick_cost_ns
+        out |= {"bench_cost_p50_us": cost.percentile(50) / 1e3, "bench_cost_p99_us": cost.percentile(99) / 1e3}
+    arrivals = lat.sim_period if virtual else lat.host_period
+    if len(arrivals.period) > 1:
+        out |= {"period_p50_us": arrivals.period.percentile(50) / 1e3,
+                "period_jitter_p99_us": arrivals.jitter.percentile(99) / 1e3}
     if virtual:
         out["boot_sim_s"] = st.boot_sim_ns / 1e9
     telemetry_compute: np.ndarray | None = None
     if trace is not None:
         with contextlib.suppress(KeyError):
             telemetry_compute = trace.signal("tm.compute_last_us")[1]
-    # one rule with `hil timing` (hil/timing.py)
-    fc_cpu_us = np.asarray(st.fc_cpu_ns) / 1e3 if virtual else None
+    # one rule with `hil timing` (hil/timing.py), on the same per-sample values
+    fc_cpu_us = np.frombuffer(st.fc_cpu_ns, dtype=np.int64) / 1e3 if virtual else None
     out |= _percentiles("fc_compute", compute_samples_us(fc_cpu_us, telemetry_compute, cpu_scale))
     if st.lateness_ns:
-        out |= _percentiles("lateness", np.asarray(st.lateness_ns) / 1e3)
+        out |= _percentiles("lateness", st.lateness_ns, 1e-3)
     return out
 
 
 def realtime_criterion(loop: TickLoop, tick_ns: int) -> CriterionResult | None:
     """Realtime runs: did the pacer hold 400 Hz (hil.timing.realtime_verdict)? A run that
     fell behind must not read as a 400 Hz run because its RTF is about 1."""
-    verdict = realtime_verdict(np.asarray(loop.stats.lateness_ns) / 1e3, tick_ns / 1e3)
-    if verdict is None:
+    st = loop.stats
+    if not st.lateness_ns:
         return None
+    late = st.lateness_ns
+    verdict = realtime_held(len(late), st.late_ticks, late.percentile(99) / 1e3, late.max / 1e3, tick_ns / 1e3)
     return CriterionResult("realtime held", "timing.lateness_us", "p99 / max", verdict.max_us,
                            f"p99 <= {tick_ns / 1e3:g}, max <= {REALTIME_MAX_LATE_US:g}", verdict.held,
                            "" if verdict.held else verdict.text)
@@ -202,13 +203,16 @@ async def run_flight_async(
     stress_adc_delay_us: float = 0.0,
     virtual_time: bool | None = None,
     attach: Mapping[str, str] | None = None,
+    started_ns: int | None = None,
 ) -> RunResult:
     """Run one flight (see module docstring). Never raises for run-time failures; a scenario
     the rig refuses raises :class:`ConfigError` before anything is created.
 
     ``virtual_time``: lockstep on sim time through the clock shim (None: the rig's
     ``[flight] virtual_time``, on by default); False runs lockstep on the host clock.
-    ``attach``: port -> device or URL over the rig's ``[ports]`` (hil/attach.py); realtime only."""
+    ``attach``: port -> device or URL over the rig's ``[ports]`` (hil/attach.py); realtime only.
+    ``started_ns``: host monotonic instant the run was asked for (``hil run`` passes its process
+    start): the timing figures then include ``start_to_tick0_s``, the wall time to tick 0."""
     # The recorder's writer thread must not hold the GIL for the default 5 ms while the
     # tick waits on a pty (hil/record measurements: wake-ups 2.2 ms late otherwise).
     sys.setswitchinterval(SWITCH_INTERVAL_S)
@@ -354,6 +358,8 @@ async def run_flight_async(
             vt.close()
         clock_note = loop.fallback_reason or clock_note
         timing = _timing_summary(loop, rig.tick_ns, trace, rig.flight.cpu_scale)
+        if started_ns is not None and loop.stats.wall_start_ns:
+            timing["start_to_tick0_s"] = (loop.stats.wall_start_ns - started_ns) / 1e9
         criteria = evaluate(scenario.criteria, trace) if end is EndReason.COMPLETED else []
         timing_criteria = runner.timing_criteria(timing, logger)
         criteria += timing_criteria

@@ -84,7 +84,7 @@ class RunLogger:
         self.fc_lines = 0
         self.telemetry = TelemetryDecoder()
         self._last_cmd_us: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
-        self._lat_i = 0
+        self._adc: list[Any] = []  # this tick's Mcp3204Conversion events
         trace.define(
             "truth",
             {
@@ -145,19 +145,9 @@ class RunLogger:
             # items the configured output does not carry are left out, not null
             rec.log("/hil/imu/sample", ev.t_ns, {k: v for k, v in sample.items() if v is not None}, t_host)
         elif name == "Mcp3204Conversion":
-            rec.log(
-                "/hil/adc/conversion",
-                ev.t_ns,
-                {
-                    "t_ns": ev.t_ns,
-                    "channel": ev.channel,  # type: ignore[attr-defined]
-                    "single_ended": ev.single_ended,  # type: ignore[attr-defined]
-                    "code": ev.code,  # type: ignore[attr-defined]
-                    "volts": ev.volts,  # type: ignore[attr-defined]
-                    "vref_V": ev.vref_V,  # type: ignore[attr-defined]
-                },
-                t_host,
-            )
+            # one message per tick holds the tick's conversions (after_tick): a message per
+            # conversion cost more in record overhead than the conversion itself
+            self._adc.append(ev)
         else:
             detail = _jsonable(ev)
             detail.pop("t_ns", None)
@@ -212,6 +202,33 @@ class RunLogger:
                 if rec is not None:
                     rec.log("/hil/rc/pulses", frame.t_ns, {"t_ns": frame.t_ns, "pulse_us": pulses, "present": True}, t_host)  # type: ignore[attr-defined]
             d.rc_frames.clear()
+        if d.latency:
+            # taken every tick, recorded or not: the list holds one tick's samples, never the
+            # run's (the run's figures are streamed in d.latency_stats)
+            pending, d.latency = d.latency, []
+            for lat in pending if rec is not None else ():  # (rec is not None inside)
+                arrival = lat.t_arrival_host_ns
+                host_us = (arrival - lat.t_emit_host_ns) / 1e3 if arrival is not None else -1.0
+                if lat.t_arrival_ns is not None:
+                    latency_us = (lat.t_arrival_ns - lat.t_ns) / 1e3
+                else:
+                    latency_us = host_us if lat.fc_cpu_ns is None else -1.0
+                rec.log(  # type: ignore[union-attr]
+                    "/hil/timing/tick",
+                    lat.t_ns,
+                    {
+                        "k": lat.t_ns // self.rig.tick_ns,
+                        "t_ns": lat.t_ns,
+                        "imu_emit_host_ns": lat.t_emit_host_ns,
+                        "esc_arrival_host_ns": arrival if arrival is not None else -1,
+                        "latency_us": latency_us,
+                        "host_latency_us": host_us,
+                        "fc_cpu_us": lat.fc_cpu_ns / 1e3 if lat.fc_cpu_ns is not None else -1.0,
+                        "lateness_us": lat.lateness_ns / 1e3 if lat.lateness_ns is not None else -1.0,
+                        "miss": arrival is None,
+                    },
+                    t_host,
+                )
         if rec is not None:
             # PlantState is immutable: its payloads are built on the writer thread
             if k % self.truth_divider == 0:
@@ -221,31 +238,9 @@ class RunLogger:
                 stamp = divmod(self.run_start_unix_ns + t_ns, 1_000_000_000)
                 rec.log("/tf", t_ns, partial(_tf_payload, stamp, st), t_host)
                 rec.log("/sim/pose", t_ns, partial(_pose_payload, stamp, st), t_host)
-            if len(d.latency) > self._lat_i:
-                for lat in d.latency[self._lat_i :]:
-                    arrival = lat.t_arrival_host_ns
-                    host_us = (arrival - lat.t_emit_host_ns) / 1e3 if arrival is not None else -1.0
-                    if lat.t_arrival_ns is not None:
-                        latency_us = (lat.t_arrival_ns - lat.t_ns) / 1e3
-                    else:
-                        latency_us = host_us if lat.fc_cpu_ns is None else -1.0
-                    rec.log(
-                        "/hil/timing/tick",
-                        lat.t_ns,
-                        {
-                            "k": lat.t_ns // self.rig.tick_ns,
-                            "t_ns": lat.t_ns,
-                            "imu_emit_host_ns": lat.t_emit_host_ns,
-                            "esc_arrival_host_ns": arrival if arrival is not None else -1,
-                            "latency_us": latency_us,
-                            "host_latency_us": host_us,
-                            "fc_cpu_us": lat.fc_cpu_ns / 1e3 if lat.fc_cpu_ns is not None else -1.0,
-                            "lateness_us": lat.lateness_ns / 1e3 if lat.lateness_ns is not None else -1.0,
-                            "miss": arrival is None,
-                        },
-                        t_host,
-                    )
-                self._lat_i = len(d.latency)
+            if self._adc:
+                rec.log("/hil/adc/conversion", self._adc[0].t_ns, _adc_payload(self._adc), t_host)
+                self._adc = []
             if k % self.counters_divider == 0:
                 rec.log("/hil/device/counters", t_ns, {"t_ns": t_ns, "counters": self.counters()}, t_host)
             rec.flush()
@@ -311,6 +306,22 @@ def _truth_payload(t_ns: int, st: Any) -> dict[str, Any]:
         "wind_N_mps": list(st.wind_N_mps),
         "mass_kg": st.mass_kg,
     }
+
+
+def _adc_payload(conversions: list[Any]) -> dict[str, Any]:
+    """``hil.AdcConversions`` of a tick's ``Mcp3204Conversion`` events (in the order answered)."""
+    t0 = conversions[0].t_ns
+    out: dict[str, Any] = {
+        "t_ns": t0,
+        "channel": [c.channel for c in conversions],
+        "code": [c.code for c in conversions],
+        "volts": [c.volts for c in conversions],
+        "single_ended": [c.single_ended for c in conversions],
+        "vref_V": [c.vref_V for c in conversions],
+    }
+    if any(c.t_ns != t0 for c in conversions):
+        out["dt_ns"] = [c.t_ns - t0 for c in conversions]
+    return out
 
 
 def _esc_output(t_ns: int, throttle: tuple[float, ...], armed: tuple[float, ...]) -> dict[str, Any]:

@@ -6,7 +6,9 @@ PlotJuggler.
 
 from hil.record.reader import (
     TornRecordingError,
+    chunk_counts,
     iter_messages,
+    iter_wire,
     message_counts,
     read_attachments,
     read_metadata,
@@ -20,6 +22,6 @@ from hil.record.writer import Recorder, RecordStats, RecordWriteError
 
 __all__ = [
     "TOPICS", "WIRE_PORTS", "RecordStats", "RecordWriteError", "Recorder", "TopicSpec", "TornRecordingError",
-    "UnknownTopicError", "iter_messages", "message_counts", "read_attachments", "read_metadata", "read_topic",
+    "UnknownTopicError", "chunk_counts", "iter_messages", "iter_wire", "message_counts", "read_attachments", "read_metadata", "read_topic",
     "read_wire", "recover", "recovered_path", "topic_spec", "validate", "Validation", "wire_topic",
 ]

@@ -4,13 +4,21 @@ One place. Adding a topic is one ``TopicSpec`` line in ``_TABLE`` (plus its sche
 Logging to a topic that is not in the table is a programming error and raises
 ``UnknownTopicError`` at ``Recorder.log()`` time.
 
-Every channel uses message encoding ``json`` with a ``jsonschema`` schema. Our own schemas
-(``hil.*``) are built here; the Foxglove well-known ones (``foxglove.FrameTransform``,
-``foxglove.PoseInFrame``, ``foxglove.Log``) are the official JSON schemas vendored in
-``schemas/`` (see schemas/README.md). Schemas stay inside the subset Foxglove's JSON-schema
-parser accepts (root ``object`` with ``properties``; fields ``boolean``/``string``
-(``contentEncoding: base64`` for bytes)/``number``/``integer``/``object``/``array`` of those,
-or ``oneOf`` numeric constants), so its panels can address every field.
+Each topic has one encoding (``TopicSpec.encoding``, docs/recording.md "Encoding"): the
+high-rate topics (wire bytes, truth, device values, tick timing) are ``protobuf`` with a schema
+generated from the topic's JSON schema (``hil/record/protobuf.py``); the low-rate and
+free-form ones, and the Foxglove well-known ones (``foxglove.FrameTransform``,
+``foxglove.PoseInFrame``, ``foxglove.Log``: the official JSON schemas vendored in
+``schemas/``, see schemas/README.md), are ``json`` with a ``jsonschema`` schema. The JSON
+schema describes every topic either way (validation, docs). Schemas stay inside the subset
+Foxglove's JSON-schema parser accepts (root ``object`` with ``properties``; fields
+``boolean``/``string`` (``contentEncoding: base64`` for bytes)/``number``/``integer``/
+``object``/``array`` of those, or ``oneOf`` numeric constants), so its panels can address
+every field.
+
+Protobuf topics leave out what the MCAP record already holds: ``t_ns`` when it equals the
+log time's sim time, ``t_host_ns`` when it equals ``publish_time``; ``hil.record`` readers
+put them back.
 
 The writer completes payloads according to ``TopicSpec.stamp``:
 
@@ -24,6 +32,7 @@ The writer completes payloads according to ``TopicSpec.stamp``:
 from __future__ import annotations
 
 import enum
+import functools
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -41,6 +50,13 @@ WIRE_DIRECTIONS: tuple[str, ...] = ("tx", "rx")
 
 class UnknownTopicError(LookupError):
     """A topic (or wire port/direction) that is not in the topic table."""
+
+
+class Encoding(enum.Enum):
+    """Message encoding of a channel."""
+
+    JSON = "json"
+    PROTOBUF = "protobuf"
 
 
 class Stamp(enum.Enum):
@@ -64,10 +80,25 @@ class TopicSpec:
     example: Any
     stamp: Stamp = Stamp.SIM
     defaults: Mapping[str, Any] = field(default_factory=dict)
+    encoding: Encoding = Encoding.JSON
+    #: protobuf: numbers as 32-bit floats (values that are float32 or coarser at the source)
+    float32: bool = False
+    #: nominal message rate at the default rig, for the docs ("" if irregular)
+    rate: str = ""
 
     def schema_bytes(self) -> bytes:
-        """The schema as registered in the MCAP file (UTF-8 JSON)."""
+        """The schema as registered in the MCAP file: UTF-8 JSON schema, or for protobuf the
+        serialized ``FileDescriptorSet`` of ``schema_name``."""
+        if self.encoding is Encoding.PROTOBUF:
+            return _descriptor_set(self.schema_name, json.dumps(self.schema), self.float32)
         return json.dumps(self.schema, indent=1).encode()
+
+
+@functools.lru_cache(maxsize=None)
+def _descriptor_set(schema_name: str, schema_json: str, float32: bool) -> bytes:
+    from hil.record.protobuf import file_descriptor_set
+
+    return file_descriptor_set(schema_name, json.loads(schema_json), float32=float32)
 
 
 # ---- schema builders (our own types) ------------------------------------------------------
@@ -121,13 +152,33 @@ def _vendored(name: str) -> dict[str, Any]:
 
 _EULER = _obj("ZYX Euler angles, degrees", roll=_num("deg"), pitch=_num("deg"), yaw=_num("deg"))
 
-WIRE = _message(
+WIRE = _message(  # the JSON form of recordings before the compact format (still read)
     "hil.WireChunk", "Raw bytes seen on one port in one direction (one transport read/write).",
     Stamp.TIMING,
     port=_str("port name"), direction={"type": "string", "enum": list(WIRE_DIRECTIONS),
                                        "description": "tx = bench->flight code, rx = flight code->bench"},
     len=_int("number of bytes", 0),
     data={"type": "string", "contentEncoding": "base64", "description": "the bytes, base64"})
+
+#: sim time one wire message spans at most (and bytes it holds at most): one message per
+#: transport read/write costs ~35 B of record and index each, more than the bytes themselves
+WIRE_BATCH_NS = 100_000_000
+WIRE_BATCH_BYTES = 16384
+WIRE_CHUNKS = _message(
+    "hil.WireChunks", "Raw bytes seen on one port in one direction: the transport reads/writes of "
+    "up to 100 ms of sim time, concatenated in order. Chunk i is data[sum(chunk_len[:i]):][:chunk_len[i]], "
+    "at sim time t_ns + sum(chunk_dt_ns[:i+1]) and host time t_host_ns + sum(chunk_dt_host_ns[:i+1]).",
+    Stamp.TIMING, ("t_host_ns",),
+    port=_str("port name"), direction={"type": "string", "enum": list(WIRE_DIRECTIONS),
+                                       "description": "tx = bench->flight code, rx = flight code->bench"},
+    len=_int("number of bytes (all chunks)", 0),
+    data={"type": "string", "contentEncoding": "base64", "description": "the bytes (protobuf bytes)"},
+    chunk_len={"type": "array", "items": {"type": "integer", "minimum": 0},
+               "description": "bytes of each transport read/write"},
+    chunk_dt_ns={"type": "array", "items": {"type": "integer"},
+                 "description": "sim time of each chunk minus the previous one's (0 for the first), ns"},
+    chunk_dt_host_ns={"type": "array", "items": {"type": "integer"},
+                      "description": "host time of each chunk minus the previous one's (0 for the first), ns"})
 
 SIM_TRUTH = _message(
     "hil.SimTruth", "Plant truth at the end of the tick (world NED, body FRD).", Stamp.SIM,
@@ -149,12 +200,29 @@ IMU_SAMPLE = _message(  # emulators.xsens.events.SampleSent; items the message d
     rate_radps=_vec(3, "rate of turn, rad/s, sensor frame"),
     acc_mps2=_vec(3, "acceleration, m/s^2, sensor frame"), nbytes=_int("bytes of the whole frame", 0))
 
-ADC_CONVERSION = _message(  # emulators.mcp3204.device.Mcp3204Conversion
+ADC_CONVERSION = _message(  # emulators.mcp3204.device.Mcp3204Conversion; the JSON form before the compact format
     "hil.AdcConversion", "One MCP3204 conversion answered to the flight code.", Stamp.SIM,
     ("single_ended", "vref_V", "port"),
     channel=_int("channel (single-ended input, or IN+ of the pair) 0..3", 0), code=_int("12-bit code 0..4095", 0),
     volts=_num("VIN at the sample instant, V"), single_ended=_bool("single-ended (else pseudo-differential)"),
     vref_V=_num("reference voltage, V"), port=_str("adc or adc-spidriver"))
+
+
+def _list(desc: str, item: str, minimum: int | None = None) -> dict[str, Any]:
+    items: dict[str, Any] = {"type": item}
+    if minimum is not None:
+        items["minimum"] = minimum
+    return {"type": "array", "items": items, "description": desc}
+
+
+ADC_CONVERSIONS = _message(  # one message per tick: the tick's conversions, in the order answered
+    "hil.AdcConversions", "The MCP3204 conversions answered to the flight code during one tick, in order "
+    "(item i of every list is conversion i).", Stamp.SIM, ("dt_ns", "single_ended", "vref_V", "port"),
+    channel=_list("channel (single-ended input, or IN+ of the pair) 0..3", "integer", 0),
+    code=_list("12-bit code 0..4095", "integer", 0), volts=_list("VIN at the sample instant, V", "number"),
+    dt_ns=_list("sim time of the conversion minus t_ns, ns", "integer"),
+    single_ended=_list("single-ended (else pseudo-differential)", "boolean"),
+    vref_V=_list("reference voltage, V", "number"), port=_str("adc or adc-spidriver"))
 
 RC_PULSES = _message(
     "hil.RcPulses", "RC receiver channel pulses of the frame delivered at t_ns.", Stamp.SIM,
@@ -217,46 +285,55 @@ _EX_TRUTH = {
     "wind_N_mps": [1.0, 0.5, 0.0], "mass_kg": 1.0}
 
 _P = Stamp  # shorter table lines
+_PB = Encoding.PROTOBUF
 # fmt: off
 _TABLE: list[TopicSpec] = [
-    *[TopicSpec(f"/hil/wire/{p}/{d}", "hil.WireChunk", WIRE, f"raw bytes on port {p}, {d}", "bytes; t_host_ns ns",
-                b"\xfa\xff\x36\x00\xcb", _P.TIMING) for p in WIRE_PORTS for d in WIRE_DIRECTIONS],
-    TopicSpec("/sim/truth", "hil.SimTruth", SIM_TRUTH, "plant truth per tick", "SI; NED world, FRD body", _EX_TRUTH),
+    *[TopicSpec(f"/hil/wire/{p}/{d}", "hil.WireChunks", WIRE_CHUNKS, f"raw bytes on port {p}, {d}", "bytes; t_host_ns ns",
+                b"\xfa\xff\x36\x00\xcb", _P.TIMING, encoding=_PB, rate="<= 10 Hz (100 ms batches)")
+      for p in WIRE_PORTS for d in WIRE_DIRECTIONS],
+    TopicSpec("/sim/truth", "hil.SimTruth", SIM_TRUTH, "plant truth per tick", "SI; NED world, FRD body", _EX_TRUTH,
+              encoding=_PB, float32=True, rate="400 Hz / truth_divider (100 Hz)"),
     TopicSpec("/tf", "foxglove.FrameTransform", _vendored("foxglove.FrameTransform"),
               "world (ENU) -> base_link (FLU) from the truth", "m; quaternion (x, y, z, w)",
               {"parent_frame_id": "world", "child_frame_id": "base_link", "translation": {"x": -0.2, "y": 0.1, "z": 1.5},
-               "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}, _P.FOXGLOVE),
+               "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}, _P.FOXGLOVE, rate="400 Hz / pose_divider"),
     TopicSpec("/sim/pose", "foxglove.PoseInFrame", _vendored("foxglove.PoseInFrame"),
               "truth pose in frame world (ENU/FLU)", "m; quaternion (x, y, z, w)",
               {"frame_id": "world", "pose": {"position": {"x": -0.2, "y": 0.1, "z": 1.5},
-                                             "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}, _P.FOXGLOVE),
+                                             "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}, _P.FOXGLOVE,
+              rate="400 Hz / pose_divider"),
     TopicSpec("/hil/imu/sample", "hil.ImuSample", IMU_SAMPLE, "XSENS sample as sent", "deg, rad/s, m/s^2; SampleTimeFine 1e-4 s",
               {"packet_counter": 17, "sample_time_fine": 42500, "euler_deg": [0.5, -1.0, 90.0],
-               "rate_radps": [0.01, 0.0, -0.02], "acc_mps2": [0.1, -0.05, 9.81], "nbytes": 61}),
-    TopicSpec("/hil/adc/conversion", "hil.AdcConversion", ADC_CONVERSION, "MCP3204 conversion", "code 0..4095; V",
-              {"channel": 0, "single_ended": True, "code": 2048, "volts": 2.5, "vref_V": 5.0}),
+               "rate_radps": [0.01, 0.0, -0.02], "acc_mps2": [0.1, -0.05, 9.81], "nbytes": 61},
+              encoding=_PB, float32=True, rate="400 Hz"),
+    TopicSpec("/hil/adc/conversion", "hil.AdcConversions", ADC_CONVERSIONS, "MCP3204 conversions of one tick", "code 0..4095; V",
+              {"channel": [0, 1, 2, 3], "single_ended": [True] * 4, "code": [2048, 1650, 1651, 2480],
+               "volts": [2.5, 1.65, 1.651, 2.48], "vref_V": [5.0] * 4}, encoding=_PB, float32=True, rate="400 Hz (one per tick)"),
     TopicSpec("/hil/rc/pulses", "hil.RcPulses", RC_PULSES, "RC pulses delivered", "us",
-              {"pulse_us": [1500, 1500, 1100, 1500, 1900, 1100, 1500, 1500], "present": True}),
+              {"pulse_us": [1500, 1500, 1100, 1500, 1900, 1100, 1500, 1500], "present": True},
+              encoding=_PB, float32=True, rate="44 Hz (PPM frame)"),
     TopicSpec("/hil/esc/command", "hil.EscCommand", ESC_COMMAND, "Maestro targets received", "us",
-              {"targets_us": [1100.0, 1100.25, 1100.5, 1100.0]}),
+              {"targets_us": [1100.0, 1100.25, 1100.5, 1100.0]}, encoding=_PB, float32=True, rate="400 Hz"),
     TopicSpec("/hil/esc/output", "hil.EscOutput", ESC_OUTPUT, "ESC throttles and arming", "0..1",
-              {"throttle": [0.45, 0.46, 0.44, 0.45], "armed": [True, True, True, True]}),
+              {"throttle": [0.45, 0.46, 0.44, 0.45], "armed": [True, True, True, True]},
+              encoding=_PB, float32=True, rate="400 Hz / truth_divider (100 Hz)"),
     TopicSpec("/fc/telemetry", "hil.FcTelemetry", FC_TELEMETRY, "decoded telemetry frames", "as decoded",
-              {"frame": "status", "h_est_m": 1.49, "mode": "ALT_HOLD", "rssi": [-60, -61]}),
+              {"frame": "status", "h_est_m": 1.49, "mode": "ALT_HOLD", "rssi": [-60, -61]}, rate="50 Hz"),
     TopicSpec("/fc/log", "foxglove.Log", _vendored("foxglove.Log"), "flight-code stdout/stderr lines", "level 1..5",
               {"level": 2, "message": "armed", "name": "flightcode.stdout"}, _P.FOXGLOVE, {"level": 2, "file": "", "line": 0}),
     TopicSpec("/hil/timing/tick", "hil.TickTiming", TICK_TIMING, "per-tick loop timing", "ns host monotonic; us",
               {"k": 400, "imu_emit_host_ns": 1_000_000_000, "esc_arrival_host_ns": 1_000_180_000,
-               "latency_us": 180.0, "miss": False}, _P.TIMING),
+               "latency_us": 180.0, "miss": False}, _P.TIMING, encoding=_PB, float32=True, rate="400 Hz"),
     TopicSpec("/hil/events", "hil.Event", EVENT, "scenario, fault, run and device events", "as in detail",
               {"kind": "fault", "name": "imu_dropout", "detail": {"duration_s": 0.5}}),
     TopicSpec("/hil/verdict", "hil.Verdict", VERDICT, "end of run and criteria results", "signal units",
               {"passed": True, "end_reason": "completed", "message": "", "flight_returncode": 0,
                "criteria": [{"name": "hover_alt", "signal": "truth.h_m", "metric": "max_abs",
                              "value": 0.12, "bound": "<= 0.2", "passed": True, "detail": ""}],
-               "timing": {"latency_p99_us": 210.0}}),
+               "timing": {"latency_p99_us": 210.0}}, rate="once"),
     TopicSpec("/hil/device/counters", "hil.DeviceCounters", DEVICE_COUNTERS, "device counters snapshot", "counts",
-              {"counters": {"imu": {"bad_checksum": 0, "messages": 12}, "port.esc": {"bytes_rx": 400}}}),
+              {"counters": {"imu": {"bad_checksum": 0, "messages": 12}, "port.esc": {"bytes_rx": 400}}},
+              rate="400 Hz / counters_divider"),
 ]
 # fmt: on
 
@@ -284,10 +361,12 @@ def wire_topic(port: str, direction: str) -> str:
 
 def topics_markdown() -> str:
     """The topics table of docs/recording.md (wire topics folded into one row)."""
-    rows = ["| topic | schema | content | units / frames |", "|---|---|---|---|",
-            f"| `/hil/wire/<port>/<tx\\|rx>` ({', '.join(WIRE_PORTS)}) | `hil.WireChunk` | "
-            "raw bytes per port and direction (base64 `data`, `len`, `t_host_ns`) | bytes; ns |"]
+    rows = ["| topic | schema | encoding | rate | content | units / frames |", "|---|---|---|---|---|---|",
+            f"| `/hil/wire/<port>/<tx\\|rx>` ({', '.join(WIRE_PORTS)}) | `hil.WireChunks` | protobuf | "
+            "<= 10 Hz (100 ms batches) | raw bytes per port and direction (`data` bytes, `chunk_len`, "
+            "`chunk_dt_ns`, `chunk_dt_host_ns`) | bytes; ns |"]
     for s in _TABLE:
         if not s.topic.startswith("/hil/wire/"):
-            rows.append(f"| `{s.topic}` | `{s.schema_name}` | {s.description} | {s.units} |")
+            enc = s.encoding.value + (" (float32)" if s.float32 else "")
+            rows.append(f"| `{s.topic}` | `{s.schema_name}` | {enc} | {s.rate or 'irregular'} | {s.description} | {s.units} |")
     return "\n".join(rows)

@@ -1,7 +1,8 @@
 """One MCAP file per run, written by a background thread fed through a bounded queue.
 
 The tick path only calls ``log``/``log_wire``/``log_truth``: a topic check and a queue put
-(no encoding, no I/O). The writer thread JSON-encodes, stamps and adds messages to an
+(no encoding, no I/O). The writer thread encodes (protobuf or JSON, per topic: topics.py),
+stamps, gathers wire bytes into 100 ms messages and adds messages to an
 ``mcap.writer.Writer`` (zstd chunks of at most ``chunk_size`` uncompressed bytes, 64 KiB by
 default: a 1 MiB chunk flush stalls 3-14 ms, research/limits.md section 5).
 
@@ -25,7 +26,6 @@ record and in ``close()``'s ``RecordStats``.
 
 from __future__ import annotations
 
-import base64
 import enum
 import json
 import math
@@ -44,11 +44,23 @@ import orjson
 from mcap.data_stream import RecordBuilder
 from mcap.records import Channel, Schema
 from mcap.well_known import MessageEncoding, SchemaEncoding
+import mcap.writer as _mcap_writer
 from mcap.writer import CompressionType, Writer
 
 import hil
 from hil.record import frames
-from hil.record.topics import TOPICS, Stamp, TopicSpec, UnknownTopicError, topic_spec, wire_topic
+from hil.record.protobuf import encoder as protobuf_encoder
+from hil.record.topics import (
+    TOPICS,
+    WIRE_BATCH_BYTES,
+    WIRE_BATCH_NS,
+    Encoding,
+    Stamp,
+    TopicSpec,
+    UnknownTopicError,
+    topic_spec,
+    wire_topic,
+)
 from hil.transport.base import WireRecord
 
 _LIBRARY = f"mav-hil-bench/{hil.__version__} mcap-python"
@@ -67,6 +79,29 @@ _YIELD_EVERY = 8
 _YIELD_S = 20e-6
 _STOP = object()
 _MESSAGE_OVERHEAD = 31  # opcode 1 + length 8 + channel id 2 + sequence 4 + log time 8 + publish time 8
+#: zstd level of the chunks. mcap-python compresses with zstandard's default (3) and has no
+#: option; level 6 makes a run's file 4 % smaller for +0.2 ms per 64 KiB chunk, on the
+#: recorder's own process (measured on a 48 s mission: 5.88 -> 5.66 MB of chunks; level 15
+#: gains 5 % more at 10x the CPU).
+ZSTD_LEVEL = 6
+
+
+class _LeveledZstd:
+    """Stands in for the ``zstandard`` module inside ``mcap.writer`` (it only calls
+    ``compress``): the same function at ``ZSTD_LEVEL``. Thread-safe (no shared compressor)."""
+
+    def __init__(self, module: Any) -> None:
+        self._module = module
+
+    def compress(self, data: bytes) -> bytes:
+        return self._module.compress(data, ZSTD_LEVEL)  # type: ignore[no-any-return]
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._module, name)
+
+
+if getattr(_mcap_writer, "zstandard", None) is not None and not isinstance(_mcap_writer.zstandard, _LeveledZstd):
+    _mcap_writer.zstandard = _LeveledZstd(_mcap_writer.zstandard)
 
 
 def _record_size(record: Schema | Channel) -> int:
@@ -148,17 +183,25 @@ class RecordStats:
     path: Path
     dropped_by_topic: dict[str, int] = field(default_factory=dict)
     clamped_by_topic: dict[str, int] = field(default_factory=dict)  #: log_time clamped (went backwards)
-    nonfinite_by_topic: dict[str, int] = field(default_factory=dict)  #: messages with NaN/inf written as null
+    nonfinite_by_topic: dict[str, int] = field(default_factory=dict)  #: JSON messages with NaN/inf written as null
+    #: wire topics: transport reads/writes recorded (several per MCAP message)
+    chunks_by_topic: dict[str, int] = field(default_factory=dict)
 
 
 class _Route:
-    """Per-topic state: channel id, last log time, sequence and counters."""
+    """Per-topic state: channel id, encoder, last log time, sequence, counters, and for wire
+    topics the chunks gathered for the next message."""
 
     __slots__ = ("spec", "port", "direction", "channel_id", "last_log_time", "seq", "written", "dropped",
-                 "clamped", "nonfinite", "unencodable", "first_error")
+                 "clamped", "nonfinite", "unencodable", "first_error", "encode", "chunks", "wire",
+                 "wire_bytes")
 
     def __init__(self, spec: TopicSpec) -> None:
         self.spec = spec
+        self.encode: Callable[[Mapping[str, Any]], bytes] | None = None  # protobuf topics (set at start)
+        self.chunks = 0
+        self.wire: list[tuple[int, int, bytes]] = []  # (t_ns, t_host_ns, data) not yet written
+        self.wire_bytes = 0
         parts = spec.topic.split("/")  # /hil/wire/<port>/<dir> -> ['', 'hil', 'wire', port, dir]
         wire = len(parts) == 5 and parts[1:3] == ["hil", "wire"]
         self.port = parts[3] if wire else ""
@@ -244,6 +287,23 @@ def _encode(payload: Mapping[str, Any]) -> tuple[bytes, int]:
         return json.dumps(clean, separators=(",", ":"), allow_nan=False, default=_json_default).encode(), n
 
 
+def _adc_tick(conversions: list[Mapping[str, Any]]) -> dict[str, Any]:
+    """``hil.AdcConversions`` fields from single-conversion payloads (``hil.AdcConversion``)."""
+    first = conversions[0]
+    t0 = int(first.get("t_ns", 0))
+    out: dict[str, Any] = {"t_ns": t0} if "t_ns" in first else {}
+    out |= {"channel": [int(c["channel"]) for c in conversions], "code": [int(c["code"]) for c in conversions],
+            "volts": [float(c["volts"]) for c in conversions]}
+    if any("t_ns" in c and int(c["t_ns"]) != t0 for c in conversions):
+        out["dt_ns"] = [int(c.get("t_ns", t0)) - t0 for c in conversions]
+    for key in ("single_ended", "vref_V"):
+        if all(key in c for c in conversions):
+            out[key] = [c[key] for c in conversions]
+    if "port" in first:
+        out["port"] = first["port"]
+    return out
+
+
 def _str_dict(d: Mapping[str, Any], what: str, *, strict: bool) -> dict[str, str]:
     out: dict[str, str] = {}
     for k, v in d.items():
@@ -291,6 +351,8 @@ class Recorder:
         self._chunk_bytes = 0  # uncompressed bytes in the open chunk (we close it before chunk_size)
         self._chunk_messages = 0
         self._close_error: RecordWriteError | None = None
+        self._latest_t_ns = -(1 << 62)  # latest wire chunk's sim time (closes stale wire batches)
+        self._swept_t_ns = -(1 << 62)
 
     # ---- life cycle ------------------------------------------------------------------------
     def _check(self, action: str) -> _State:
@@ -341,16 +403,20 @@ class Recorder:
         schema_ids: dict[str, int] = {}
         for route in self._routes.values():
             spec = route.spec
+            pb = spec.encoding is Encoding.PROTOBUF
+            schema_encoding = SchemaEncoding.Protobuf if pb else SchemaEncoding.JSONSchema
+            message_encoding = MessageEncoding.Protobuf if pb else MessageEncoding.JSON
+            data = spec.schema_bytes()
             if spec.schema_name not in schema_ids:
-                data = spec.schema_bytes()
-                sid = schema_ids[spec.schema_name] = w.register_schema(
-                    spec.schema_name, SchemaEncoding.JSONSchema, data)
+                sid = schema_ids[spec.schema_name] = w.register_schema(spec.schema_name, schema_encoding, data)
                 self._chunk_bytes += _record_size(
-                    Schema(id=sid, name=spec.schema_name, encoding=SchemaEncoding.JSONSchema, data=data))
+                    Schema(id=sid, name=spec.schema_name, encoding=schema_encoding, data=data))
+            if pb:
+                route.encode = protobuf_encoder(spec.schema_name, data)
             meta = {"description": spec.description, "units": spec.units}
-            route.channel_id = w.register_channel(spec.topic, MessageEncoding.JSON, schema_ids[spec.schema_name], meta)
+            route.channel_id = w.register_channel(spec.topic, message_encoding, schema_ids[spec.schema_name], meta)
             self._chunk_bytes += _record_size(Channel(
-                id=route.channel_id, topic=spec.topic, message_encoding=MessageEncoding.JSON,
+                id=route.channel_id, topic=spec.topic, message_encoding=message_encoding,
                 schema_id=schema_ids[spec.schema_name], metadata=meta))
         return w
 
@@ -452,6 +518,7 @@ class Recorder:
                 burst = 0
                 item = q.get()
             if item is _STOP:
+                self._flush_wire(None)
                 return
             depth = q.qsize() + 1
             if depth > self._high_water:
@@ -467,6 +534,7 @@ class Recorder:
         if kind is _Kind.BATCH:
             for sub in payload:
                 self._handle(sub)
+            self._flush_wire(self._latest_t_ns)  # one tick done: write out wire bytes older than a batch
             return
         if self._fatal is not None:
             route.dropped += 1
@@ -475,10 +543,18 @@ class Recorder:
             if callable(payload):  # a deferred payload: built here, off the tick path
                 payload = payload()
             if kind is _Kind.WIRE:
-                msg = {"t_ns": int(t_ns), "t_host_ns": int(t_host_ns), "port": route.port,
-                       "direction": route.direction, "len": len(payload),
-                       "data": base64.b64encode(payload).decode("ascii")}
-                self._emit(route, t_ns, t_host_ns, msg, complete=False)
+                t_ns = int(t_ns)
+                if t_ns > self._latest_t_ns:
+                    self._latest_t_ns = t_ns
+                if route.wire and (t_ns - route.wire[0][0] >= WIRE_BATCH_NS
+                                   or route.wire_bytes + len(payload) > WIRE_BATCH_BYTES):
+                    self._emit_wire(route)
+                route.wire.append((t_ns, int(t_host_ns), payload))
+                route.wire_bytes += len(payload)
+                route.chunks += 1
+                if t_ns - self._swept_t_ns >= WIRE_BATCH_NS:  # wire logged outside tick batches too
+                    self._swept_t_ns = t_ns
+                    self._flush_wire(t_ns)
             else:
                 self._emit(route, t_ns, t_host_ns, payload, complete=True)
                 if kind is _Kind.TRUTH:
@@ -495,6 +571,34 @@ class Recorder:
             route.dropped += 1
         except Exception as e:  # never let one message kill the writer thread (e.g. bad t_ns type)
             self._unencodable(route, e)
+
+    def _flush_wire(self, now_t_ns: int | None) -> None:
+        """Write the gathered wire bytes of every port whose first chunk is a batch older than
+        ``now_t_ns`` (all of them if None): a quiet port must not hold its bytes until close."""
+        for route in self._routes.values():
+            if route.wire and (now_t_ns is None or now_t_ns - route.wire[0][0] >= WIRE_BATCH_NS):
+                try:
+                    self._emit_wire(route)
+                except OSError as e:
+                    self._fatal = e
+                    route.dropped += 1
+                except Exception as e:  # never let one message kill the writer thread
+                    self._unencodable(route, e)
+
+    def _emit_wire(self, route: _Route) -> None:
+        """One ``hil.WireChunks`` message of the chunks gathered on ``route``."""
+        chunks, route.wire, route.wire_bytes = route.wire, [], 0
+        t0, h0, _ = chunks[0]
+        dt_ns = [0] * len(chunks)
+        dt_host_ns = [0] * len(chunks)
+        for i in range(1, len(chunks)):
+            dt_ns[i] = chunks[i][0] - chunks[i - 1][0]
+            dt_host_ns[i] = chunks[i][1] - chunks[i - 1][1]
+        data = b"".join(c[2] for c in chunks)
+        msg = {"t_ns": t0, "t_host_ns": h0, "port": route.port, "direction": route.direction, "len": len(data),
+               "data": data, "chunk_len": [len(c[2]) for c in chunks], "chunk_dt_ns": dt_ns,
+               "chunk_dt_host_ns": dt_host_ns}
+        self._emit(route, t0, h0, msg, complete=True)
 
     @staticmethod
     def _unencodable(route: _Route, e: BaseException) -> None:
@@ -514,7 +618,15 @@ class Recorder:
             route.clamped += 1
             log_time = 0
         route.last_log_time = log_time
-        if complete:
+        publish_time = max(0, int(t_host_ns))
+        if route.encode is not None:
+            try:
+                data = route.encode(self._compact(route, payload, log_time, t_ns, publish_time))
+            except (TypeError, ValueError, AttributeError, KeyError) as e:  # not this topic's fields/types
+                self._unencodable(route, e)
+                return
+            nonfinite = 0
+        elif complete:
             try:
                 if spec.stamp is Stamp.FOXGLOVE:
                     msg = dict(spec.defaults)
@@ -538,11 +650,27 @@ class Recorder:
         if self._chunk_messages and self._chunk_bytes + size > self._chunk_size:
             self._writer.flush()  # finish the chunk before it would pass chunk_size (mcap closes it after)
             self._chunk_bytes = self._chunk_messages = 0
-        self._writer.add_message(route.channel_id, log_time, data, max(0, int(t_host_ns)), route.seq & 0xFFFFFFFF)
+        self._writer.add_message(route.channel_id, log_time, data, publish_time, route.seq & 0xFFFFFFFF)
         self._chunk_bytes += size
         self._chunk_messages += 1
         route.seq += 1
         route.written += 1
+
+    def _compact(self, route: _Route, payload: Mapping[str, Any], log_time: int, t_ns: int,
+                 publish_time: int) -> dict[str, Any]:
+        """A protobuf topic's fields: ``t_ns``/``t_host_ns`` only where the record's log time /
+        publish time do not already say them (readers put them back)."""
+        msg = dict(payload)
+        if route.spec.schema_name == "hil.AdcConversions" and not isinstance(msg.get("code"), (list, tuple)):
+            msg = _adc_tick([msg])  # one conversion logged on its own (e.g. a copied old log)
+        msg_t_ns = msg.pop("t_ns", t_ns)
+        if int(msg_t_ns) != log_time - self.run_start_unix_ns:
+            msg["t_ns"] = int(msg_t_ns)
+        if route.spec.stamp is Stamp.TIMING:
+            host = msg.pop("t_host_ns", publish_time)
+            if int(host) != publish_time:
+                msg["t_host_ns"] = int(host)
+        return msg
 
     # ---- closing ---------------------------------------------------------------------------
     def _summary(self) -> dict[str, str]:
@@ -555,6 +683,8 @@ class Recorder:
         }
         for t, r in self._routes.items():
             s[f"messages.{t}"] = str(r.written)
+            if r.chunks:
+                s[f"chunks.{t}"] = str(r.chunks)
             for key, n in (("dropped", r.dropped), ("clamped_log_time", r.clamped),
                            ("nonfinite", r.nonfinite), ("unencodable", r.unencodable)):
                 if n:
@@ -615,7 +745,8 @@ class Recorder:
             path=self.path if error is None else self.part_path,
             dropped_by_topic={r.spec.topic: r.dropped for r in routes if r.dropped},
             clamped_by_topic={r.spec.topic: r.clamped for r in routes if r.clamped},
-            nonfinite_by_topic={r.spec.topic: r.nonfinite for r in routes if r.nonfinite})
+            nonfinite_by_topic={r.spec.topic: r.nonfinite for r in routes if r.nonfinite},
+            chunks_by_topic={r.spec.topic: r.chunks for r in routes if r.chunks})
         if error is not None:
             self._close_error = RecordWriteError(f"recording {self.part_path} failed: {error}")
             raise self._close_error from error

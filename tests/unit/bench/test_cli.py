@@ -44,3 +44,27 @@ def test_faults_lists_the_catalogue() -> None:
     result = runner.invoke(app, ["faults"])
     assert result.exit_code == 0
     assert "imu.silence" in result.output and "wire.bit_flips" in result.output
+
+
+def test_mode_names_match_the_bench() -> None:
+    from hil.bench import Mode
+    from hil.cli import _MODES
+
+    assert tuple(m.value for m in Mode) == _MODES
+
+
+_HEAVY = ("matplotlib", "dask", "distributed", "scipy", "control", "jsonschema", "google.protobuf")
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["run", "--mode", "fast"], ["run", "no-such-rig"],
+                                  ["timing", "no-such.mcap"], ["report", "no-such.mcap"], ["replay", "no-such.mcap"],
+                                  ["recover", "no-such.mcap"], ["campaign", "no-such.toml"], ["perf", "--help"]])
+def test_help_and_argument_errors_import_nothing_heavy(argv: list[str]) -> None:
+    # start-up time of `hil` (issue 12): heavy packages only where a command uses them
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom hil.cli import app\ntry:\n    app(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+            f"print(sorted(m for m in sys.modules if m.split('.')[0] in {_HEAVY!r} or m in {_HEAVY!r}))")
+    out = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=120)
+    assert out.stdout.strip().splitlines()[-1] == "[]", (out.stdout, out.stderr)

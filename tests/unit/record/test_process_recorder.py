@@ -37,7 +37,9 @@ def test_batches_deferred_payloads_and_wire(tmp_path: Path) -> None:
     assert stats.path == path and path.exists() and not Path(str(path) + ".part").exists()
     assert stats.messages_by_topic["/sim/truth"] == 200 and stats.dropped == 0
     counts = message_counts(path)
-    assert counts["/sim/truth"] == 200 and counts["/hil/wire/imu/tx"] == 200 and counts["/hil/events"] == 1
+    # 200 wire chunks over 0.5 s of sim time: 5 messages of 100 ms
+    assert counts["/sim/truth"] == 200 and counts["/hil/wire/imu/tx"] == 5 and counts["/hil/events"] == 1
+    assert stats.chunks_by_topic == {"/hil/wire/imu/tx": 200}
     assert read_topic(path, "/sim/truth")["h_m"][-1] == pytest.approx(1.99)
     assert read_wire(path, "imu", "tx")[:6] == b"\x00\x00\x00\x01\x01\x01"
     meta = read_metadata(path)

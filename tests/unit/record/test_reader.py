@@ -22,7 +22,7 @@ from hil.record import (
     read_wire,
 )
 from hil.record.topics import TOPICS
-from tests.unit.record.support import RUN_START_NS, record_examples
+from tests.unit.record.support import RUN_START_NS, expected_messages, record_examples
 
 
 def test_read_topic_shapes_and_dtypes(tmp_path: Path) -> None:
@@ -36,7 +36,7 @@ def test_read_topic_shapes_and_dtypes(tmp_path: Path) -> None:
     assert truth["on_ground"].dtype == bool
     assert truth["t_ns"].dtype == np.int64
     rc = read_topic(rec.path, "/hil/rc/pulses")
-    assert rc["pulse_us"].dtype == np.int64 and rc["pulse_us"].shape == (4, 8)
+    assert rc["pulse_us"].dtype == np.float64 and rc["pulse_us"].shape == (4, 8)  # protobuf float (JSON-era: int)
     esc = read_topic(rec.path, "/hil/esc/output")
     assert esc["armed"].dtype == bool and esc["armed"].shape == (4, 4)
     log = read_topic(rec.path, "/fc/log")
@@ -75,9 +75,12 @@ def test_empty_and_unknown_topics(tmp_path: Path) -> None:
 def test_iter_messages_filters_and_orders(tmp_path: Path) -> None:
     rec = record_examples(tmp_path / "r.mcap", n_rounds=3)
     all_msgs = list(iter_messages(rec.path))
-    assert len(all_msgs) == 3 * len(TOPICS)
-    times = [lt for _, lt, _ in all_msgs]
-    assert times == sorted(times)
+    assert len(all_msgs) == 3 * sum(len(expected_messages(s, 0, 0)) for s in TOPICS.values())
+    for topic in TOPICS:  # each topic in order; across topics by the stored message's log time
+        times = [lt for t, lt, _ in all_msgs if t == topic]
+        assert times == sorted(times) and len(times) >= 3
+    stored = [lt for _, lt, _ in iter_messages(rec.path, expand=False)]
+    assert stored == sorted(stored) and len(stored) == 3 * len(TOPICS) - 2 * sum(t.startswith("/hil/wire/") for t in TOPICS)
     only = {t for t, _, _ in iter_messages(rec.path, ["/tf", "/fc/log"])}
     assert only == {"/tf", "/fc/log"}
 
@@ -122,8 +125,10 @@ def test_truth_values_round_trip_exactly(rows: list[tuple[list[float], float, bo
                 rec.log("/sim/truth", k, truth, 0)
                 rec.log("/fc/telemetry", k, {"n": n}, 0)
         got = read_topic(rec.path, "/sim/truth")
-        assert got["p_N_m"].tolist() == [p for p, _, _, _ in rows]  # JSON float repr is exact
-        assert got["h_m"].tolist() == [h for _, h, _, _ in rows]
+        f32 = np.float32  # /sim/truth is float32 (docs/recording.md "Encoding")
+        with np.errstate(over="ignore"):
+            assert np.array_equal(got["p_N_m"], np.asarray([p for p, _, _, _ in rows], dtype=f32), equal_nan=True)
+            assert np.array_equal(got["h_m"], np.asarray([h for _, h, _, _ in rows], dtype=f32), equal_nan=True)
         assert got["on_ground"].tolist() == [g for _, _, g, _ in rows]
         assert read_topic(rec.path, "/fc/telemetry")["n"].tolist() == [n for *_, n in rows]
 
@@ -136,10 +141,18 @@ def test_non_finite_become_nan_on_read_and_are_counted(values: list[float]) -> N
         rec = Recorder(Path(d) / "n.mcap", run_start_unix_ns=RUN_START_NS, metadata={})
         with rec:
             for k, v in enumerate(values):
-                rec.log("/hil/adc/conversion", k, {"channel": 1, "code": 7, "volts": v}, 0)
+                rec.log("/hil/adc/conversion", k, {"channel": 1, "code": 7, "volts": v}, 0)  # protobuf
+                rec.log("/fc/telemetry", k, {"v": v}, 0)  # JSON
         stats = rec.close()
-        got = read_topic(rec.path, "/hil/adc/conversion")["volts"]
-        for v, g in zip(values, got, strict=True):
-            assert (math.isnan(g) if not math.isfinite(v) else g == v)
+        for topic, key in (("/hil/adc/conversion", "volts"), ("/fc/telemetry", "v")):
+            got = read_topic(rec.path, topic)[key]
+            for v, g in zip(values, got, strict=True):
+                if topic.startswith("/hil"):  # protobuf float32: NaN stays NaN, big finite values become inf
+                    with np.errstate(over="ignore"):
+                        assert math.isnan(g) if math.isnan(v) else g == np.float32(v)
+                else:  # JSON: null for any non-finite
+                    assert math.isnan(g) if not math.isfinite(v) else g == v
         bad = sum(not math.isfinite(v) for v in values)
-        assert stats.nonfinite_by_topic.get("/hil/adc/conversion", 0) == bad
+        # protobuf carries NaN and inf as they are; JSON writes null and counts it
+        assert stats.nonfinite_by_topic.get("/fc/telemetry", 0) == bad
+        assert "/hil/adc/conversion" not in stats.nonfinite_by_topic

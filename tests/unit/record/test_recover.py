@@ -135,7 +135,7 @@ def test_truncated_copies_recover_to_a_prefix(tmp_path: Path, fraction: float) -
     n = recover(cut, dst)
     validate_file(dst)
     got = list(iter_messages(dst))
-    assert len(got) == n
+    assert len(list(iter_messages(dst, expand=False))) == n  # MCAP messages (a wire message holds many chunks)
     # what survived is exactly what was in the complete chunks: a per-topic prefix of the original
     for topic in {t for t, _, _ in full}:
         orig = [m for t, _, m in full if t == topic]

@@ -26,10 +26,12 @@ from hil.record import (
     read_attachments,
     read_metadata,
     read_topic,
+    read_wire,
 )
-from hil.record.topics import TOPICS
+from hil.record.topics import TOPICS, WIRE_BATCH_BYTES, Encoding
+from hil.record.validate import validate
 from hil.transport.base import Direction, WireRecord
-from tests.unit.record.support import HOST0_NS, RUN_START_NS, expected_message, record_examples, strict_json
+from tests.unit.record.support import HOST0_NS, RUN_START_NS, expected_messages, record_examples, strict_json
 
 
 def _new(path: Path, **kwargs: Any) -> Recorder:
@@ -71,22 +73,40 @@ def test_every_topic_round_trips_and_validates(tmp_path: Path) -> None:
     assert stats.path == tmp_path / "run.mcap" and stats.path.exists()
     assert not rec.part_path.exists()
     assert stats.dropped == 0
-    assert stats.messages_by_topic == {t: 3 for t in TOPICS}
-    seen: dict[str, list[dict[str, Any]]] = {}
+    # 3 wire chunks 2.5 ms apart fit one 100 ms wire message
+    assert stats.messages_by_topic == {t: 1 if t.startswith("/hil/wire/") else 3 for t in TOPICS}
+    assert stats.chunks_by_topic == {t: 3 for t in TOPICS if t.startswith("/hil/wire/")}
+    v = validate(stats.path)
+    assert v.ok, v.problems
     for topic, message, schema in _raw_messages(stats.path):
-        assert schema is not None and schema.encoding == "jsonschema"
-        msg = strict_json(message.data)
-        jsonschema.validate(msg, json.loads(schema.data))
-        seen.setdefault(topic, []).append(msg)
+        spec = TOPICS[topic]
+        assert schema is not None and schema.name == spec.schema_name
+        assert schema.encoding == ("protobuf" if spec.encoding is Encoding.PROTOBUF else "jsonschema")
+        if spec.encoding is Encoding.JSON:
+            jsonschema.validate(strict_json(message.data), json.loads(schema.data))
         k = message.sequence
-        assert message.log_time == RUN_START_NS + k * 2_500_000
-        assert message.publish_time == HOST0_NS + k * 1000
+        if not topic.startswith("/hil/wire/"):
+            assert message.log_time == RUN_START_NS + k * 2_500_000
+            assert message.publish_time == HOST0_NS + k * 1000
+    seen: dict[str, list[dict[str, Any]]] = {}
+    for topic, log_time, msg in iter_messages(stats.path):
+        seen.setdefault(topic, []).append(msg)
+        assert log_time == RUN_START_NS + msg.get("t_ns", log_time - RUN_START_NS)
     assert set(seen) == set(TOPICS)
-    for topic, msgs in seen.items():
-        assert msgs == [expected_message(TOPICS[topic], k * 2_500_000, HOST0_NS + k * 1000) for k in range(3)]
-    # the public reader gives the same, with bytes decoded
+    for topic, msgs in seen.items():  # the readers give back what was logged, stamps included
+        assert msgs == [m for k in range(3) for m in expected_messages(TOPICS[topic], k * 2_500_000, HOST0_NS + k * 1000)]
     wire = [m for t, _, m in iter_messages(stats.path, ["/hil/wire/imu/tx"])]
     assert [m["data"] for m in wire] == [TOPICS["/hil/wire/imu/tx"].example] * 3
+
+
+def test_protobuf_messages_leave_out_what_the_record_says(tmp_path: Path) -> None:
+    rec = _new(tmp_path / "r.mcap")
+    with rec:
+        rec.log("/hil/esc/command", 2_500_000, {"targets_us": [1100.0] * 4}, 7)
+        rec.log("/hil/esc/command", 5_000_000, {"t_ns": 4_000_000, "targets_us": [1100.0] * 4}, 8)
+    raw = [m.data for _, m, _ in _raw_messages(rec.path)]
+    assert len(raw[0]) < len(raw[1])  # the first has no t_ns field: it equals its log time's sim time
+    assert [m["t_ns"] for _, _, m in iter_messages(rec.path, ["/hil/esc/command"])] == [2_500_000, 4_000_000]
 
 
 def test_metadata_and_attachments_come_first(tmp_path: Path) -> None:
@@ -102,7 +122,9 @@ def test_metadata_and_attachments_come_first(tmp_path: Path) -> None:
     assert first_data == 3
     meta = read_metadata(rec.path)
     assert set(meta) == {"run", "summary"}
-    assert meta["summary"]["messages_total"] == str(2 * len(TOPICS))
+    n_wire = sum(t.startswith("/hil/wire/") for t in TOPICS)
+    assert meta["summary"]["messages_total"] == str(2 * (len(TOPICS) - n_wire) + n_wire)
+    assert meta["summary"]["chunks./hil/wire/imu/tx"] == "2"
     assert meta["summary"]["dropped_total"] == "0"
     assert read_attachments(rec.path) == {"rig.toml": ("application/toml", b"[vehicle]\nmass_kg = 1.0\n")}
 
@@ -186,10 +208,13 @@ def test_numpy_values_and_non_finite_floats(tmp_path: Path) -> None:
     rec.log("/sim/truth", 0, truth, 0)
     rec.log("/hil/timing/tick", 0, {"k": np.int64(3), "imu_emit_host_ns": 1, "esc_arrival_host_ns": 0,
                                     "latency_us": float("nan"), "miss": True}, 0)
+    rec.log("/hil/events", 0, {"kind": "x", "name": "y", "detail": {"v": float("inf")}}, 0)
     stats = rec.close()
-    assert stats.nonfinite_by_topic == {"/hil/timing/tick": 1} and stats.dropped == 0
+    # protobuf carries NaN as it is; JSON has none: null, counted
+    assert stats.nonfinite_by_topic == {"/hil/events": 1} and stats.dropped == 0
     for topic, message, _ in _raw_messages(rec.path):
-        strict_json(message.data)  # valid JSON everywhere: NaN became null
+        if TOPICS[topic].encoding is Encoding.JSON:
+            strict_json(message.data)  # valid JSON everywhere: NaN became null
     t = read_topic(rec.path, "/sim/truth")
     assert t["p_N_m"].tolist() == [[1.0, 2.0, -3.0]] and t["mass_kg"].tolist() == [1.25]
     assert t["on_ground"].dtype == bool
@@ -280,7 +305,9 @@ def test_chunks_are_zstd_and_small(tmp_path: Path) -> None:
     assert len(chunks) > 10
     assert {c.compression for c in chunks} == {"zstd"}
     assert max(c.uncompressed_size for c in chunks) <= 65536
-    assert min(c.uncompressed_size for c in chunks[:-1]) >= 65536 - 2048  # filled, not flushed early
+    # filled, not flushed early: a chunk closes before the next message would overflow it (a wire message
+    # holds up to WIRE_BATCH_BYTES)
+    assert min(c.uncompressed_size for c in chunks[:-1]) >= 65536 - WIRE_BATCH_BYTES - 1024
     assert max(len(c.data) for c in chunks) <= 65536
 
 
@@ -329,3 +356,19 @@ def test_bad_truth_and_bad_times_do_not_kill_the_writer(tmp_path: Path) -> None:
     assert stats.dropped_by_topic == {"/tf": 1, "/sim/pose": 1, "/hil/events": 1}
     summary = read_metadata(rec.path)["summary"]
     assert summary["error./tf"].startswith("KeyError") and summary["unencodable./hil/events"] == "1"
+
+
+def test_a_quiet_wire_is_written_within_a_batch_of_sim_time(tmp_path: Path) -> None:
+    # the boot exchange on imu/rx must not wait in the writer until close (a killed run would lose it)
+    rec = _new(tmp_path / "r.mcap")
+    with rec:
+        rec.log_wire("imu", "rx", -1_000_000, 1, b"\xfa\xff\x30\x00\xd1")
+        for k in range(100):  # 250 ms of another wire
+            rec.log_wire("imu", "tx", k * 2_500_000, 2 + k, b"\xfa")
+    with rec.path.open("rb") as f:  # file order is write order
+        order = [r.channel_id for r in StreamReader(f).records if isinstance(r, Message)]
+    channels = {t: r.channel_id for t, r in rec._routes.items()}
+    tx = [i for i, c in enumerate(order) if c == channels["/hil/wire/imu/tx"]]
+    assert len(tx) == 3 and order.index(channels["/hil/wire/imu/rx"]) < tx[-1]  # not held until close
+    assert rec.close().chunks_by_topic == {"/hil/wire/imu/rx": 1, "/hil/wire/imu/tx": 100}
+    assert read_wire(rec.path, "imu", "rx") == b"\xfa\xff\x30\x00\xd1"

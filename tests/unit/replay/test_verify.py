@@ -44,7 +44,7 @@ def test_a_rerun_of_a_lockstep_run_is_identical(recorded: RunResult, tmp_path: P
     assert result.rerun_log is not None and result.rerun_log.parent == tmp_path
     assert set(result.compared) == {"imu/tx", "adc/tx", "adc/rx", "rc/tx", "esc/rx", "truth"}
     assert all(n > 0 for n in result.compared.values()), result.compared
-    assert result.compared["truth"] == 1201  # 400 Hz over [0, 3] s
+    assert result.compared["truth"] == 301  # 100 Hz (the rig's truth_divider 4) over [0, 3] s
     assert result.report().startswith("IDENTICAL")
 
 
