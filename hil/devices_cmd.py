@@ -21,7 +21,7 @@ from rich.console import Console
 from hil.bench import Mode, TickLoop
 from hil.devices import DeviceSet
 from hil.rig import Rig
-from hil.scenario import Scenario
+from hil.scenario import Scenario, apply_to_rig
 from hil.scenario_runner import ScenarioRunner
 from hil.transport.pty import PtyPort
 
@@ -54,6 +54,7 @@ async def serve_devices(
     os.chmod(run_dir, 0o700)
     dev_dir = run_dir / "dev"
     dev_dir.mkdir(mode=0o700, exist_ok=True)
+    rig = apply_to_rig(rig, scenario)
     runner = ScenarioRunner(scenario, rig)
     devices = DeviceSet(rig, seed=seed, stick_script=runner.stick_script(), with_spidriver=True)
     runner.bind(devices)

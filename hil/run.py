@@ -35,7 +35,7 @@ from hil.flightproc import FlightProcess, expand_command
 from hil.record.process import ProcessRecorder
 from hil.rig import Rig, load_rig
 from hil.runlog import RunLogger
-from hil.scenario import Scenario, load_scenario
+from hil.scenario import Scenario, apply_to_rig, load_scenario
 from hil.scenario_runner import ScenarioRunner
 from hil.stress import CpuHog
 from hil.trace import Trace
@@ -201,6 +201,7 @@ async def run_flight_async(
     dev_dir = run_dir / "dev"
     dev_dir.mkdir(mode=0o700)
 
+    rig = apply_to_rig(rig, scenario)
     runner = ScenarioRunner(scenario, rig, scenario_source)
     devices = DeviceSet(rig, seed=seed, stick_script=runner.stick_script())
     devices.adc_reply_delay_ns = int(stress_adc_delay_us * 1000)

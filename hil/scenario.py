@@ -13,6 +13,10 @@ time (seconds in the file, ns inside).
     t_s = 0.5
     action = "arm"
 
+    [wind]                # optional: replaces the rig's [plant.wind] (hil/plant/params.py)
+    mean_N_mps = [2.0, 0.0, 0.0]
+    dryden = true
+
     [[events]]
     t_s = 15.0
     kind = "payload"
@@ -28,12 +32,14 @@ time (seconds in the file, ns inside).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hil.config import ConfigError, load_toml, validate
+from hil.plant.params import WindParams
 
 S_TO_NS = 1_000_000_000
 
@@ -143,6 +149,9 @@ class Criterion(_Strict):
 class Scenario(_Strict):
     scenario: ScenarioHeader
     flight: dict[str, Any] = {}
+    #: Replaces the rig's ``[plant.wind]`` for this run (mean wind, turbulence), e.g.
+    #: ``[wind] mean_N_mps = [2.0, 1.0, 0.0]`` + ``dryden = true``. Same keys and checks.
+    wind: WindParams | None = None
     sticks: list[StickEntry] = []
     events: list[PlantEvent] = []
     faults: list[dict[str, Any]] = []
@@ -156,6 +165,13 @@ class Scenario(_Strict):
     @property
     def duration_ns(self) -> int:
         return int(round(self.scenario.duration_s * S_TO_NS))
+
+
+def apply_to_rig(rig: Any, scenario: Scenario) -> Any:
+    """The rig as flown in ``scenario``: its ``[wind]`` (if any) replaces ``[plant.wind]``."""
+    if scenario.wind is None:
+        return rig
+    return replace(rig, plant=replace(rig.plant, wind=scenario.wind))
 
 
 def load_scenario(path: Path) -> Scenario:
