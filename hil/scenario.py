@@ -124,8 +124,9 @@ class Criterion(_Strict):
     name: str
     signal: str
     metric: Literal[
-        "max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude",
+        "max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std",
         "rms_delta", "overshoot", "settling_time", "fraction_saturated", "rise_time",
+        "phase_lag_deg", "rms_change_pct",
     ]
     window_s: tuple[float, float] | None = None
     max: float | None = None
@@ -138,11 +139,28 @@ class Criterion(_Strict):
     start: float | None = None
     lo: float | None = None
     hi: float | None = None
+    #: step metrics against the height before the step: target = mean of the signal over
+    #: ``pre_step_s`` before ``step_t_s`` + ``step_size`` (start = that mean); the settling
+    #: band as a fraction of the step size (0.05 = +-5 %)
+    step_size: float | None = None
+    pre_step_s: float = Field(default=1.0, gt=0)
+    band_fraction: float | None = Field(default=None, gt=0)
+    #: phase_lag_deg: lag of ``signal`` behind ``reference`` at ``freq_hz`` (positive = late)
+    reference: str | None = None
+    freq_hz: float | None = Field(default=None, gt=0)
+    #: rms_change_pct: 100 (RMS over window_s / RMS over baseline_window_s - 1)
+    baseline_window_s: tuple[float, float] | None = None
 
     @model_validator(mode="after")
     def _has_bound(self) -> Criterion:
         if self.max is None and self.min is None:
             raise ValueError("a criterion needs max and/or min")
+        if self.metric == "phase_lag_deg" and (self.reference is None or self.freq_hz is None):
+            raise ValueError("phase_lag_deg needs reference and freq_hz")
+        if self.metric == "rms_change_pct" and (self.baseline_window_s is None or self.window_s is None):
+            raise ValueError("rms_change_pct needs window_s and baseline_window_s")
+        if self.step_size is not None and self.target is not None:
+            raise ValueError("give target or step_size, not both")
         return self
 
 

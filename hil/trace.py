@@ -65,7 +65,8 @@ class Trace:
         """(t_s, values) of a signal on the tick grid of ``grid``; KeyError if unknown.
 
         ``"a - b"`` is the difference of two signals (e.g. a tracking error
-        ``truth.roll_deg - tm.roll_ref_deg``).
+        ``truth.roll_deg - tm.roll_ref_deg``); when one side is an irregular series it is
+        taken at that series' own instants, the tick signal at the tick at or before each.
         """
         if " - " in name:
             left, right = (part.strip() for part in name.split(" - ", 1))
@@ -79,6 +80,10 @@ class Trace:
                 idx = np.searchsorted(grid_ns, st_ns, side="right") - 1
                 ok = idx >= 0
                 return st_ns[ok] / 1e9, a[idx[ok]] - np.asarray(series_v, dtype=float)[ok]
+            if left in self._series and right not in self._series:
+                # the same, mirrored (e.g. an estimate against truth: ``tm.z_hat_m - truth.h_m``)
+                t_s, d = self.signal(f"{right} - {left}", grid)
+                return t_s, -d
             t_s, a = self.signal(left, grid)
             _, b = self.signal(right, grid)
             return t_s, a - b

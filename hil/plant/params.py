@@ -222,12 +222,16 @@ class AeroParams:
     rotor_drag_vertical_N_per_mps_per_radps: float = 5.4e-4
     #: Blade-flapping hub moment per rotor, M = k_f * omega * (e_z x v_hub) (RotorPy's
     #: ``k_flap`` form, with the physical sign: the disk tilts away from the relative wind,
-    #: nose up when moving forward). Estimate for a hingeless 2-blade 12 in prop
-    #: (docs/aerodynamics.md): longitudinal flapping a1s = mu (8/3 theta_0.75 - 2 lambda_i)
-    #: (Prouty) = 3.6e-3 rad per m/s at hover, hub stiffness K = I_beta Omega^2 3e/(2(1-e))
-    #: with I_beta = 7.7e-5 kg m^2 and an equivalent hinge offset e = 0.1 (Padfield,
-    #: Helicopter Flight Dynamics, ch. 3): 0.017 N m per m/s per rotor at 607 rad/s -> 2.8e-5.
-    flapping_moment_Nm_per_mps_per_radps: float = 2.8e-5
+    #: nose up when moving forward). Hub-spring model of Hoffmann et al. (AIAA GNC 2007,
+    #: "Quadrotor helicopter flight dynamics and control: theory and experiment"),
+    #: M = k_beta a1s: longitudinal flapping a1s = mu (8/3 theta_0.75 - 2 lambda_i) (Prouty)
+    #: = 3.6e-3 rad per m/s for the APC 12x4.5 at hover; hub stiffness k_beta = I_beta
+    #: Omega^2 3e/(2(1-e)) (Padfield, Helicopter Flight Dynamics, ch. 3) with I_beta = 7.7e-5
+    #: kg m^2 and an equivalent hinge offset e = 0.02 (assumed: a flexible plastic prop;
+    #: full-scale hingeless rotors have 0.1-0.15, which would give 2.8e-5): 0.87 N m/rad,
+    #: 3.1e-3 N m per m/s per rotor at 607 rad/s -> 5.2e-6. The thrust tilt itself is in
+    #: the H-force above. docs/aerodynamics.md has the derivation and the sensitivity.
+    flapping_moment_Nm_per_mps_per_radps: float = 5.2e-6
     #: Where the body drag acts, relative to the body origin (body FRD, m): the landing gear
     #: and the battery hang below the hub, so the centre of pressure sits below it (assumed).
     centre_of_pressure_B_m: Vec3 = (0.0, 0.0, 0.03)

@@ -70,11 +70,11 @@ def test_sideways_airspeed_rolls_away_from_the_wind() -> None:
 
 
 def test_default_magnitudes_at_1_mps() -> None:
-    """The sourced defaults: ~0.068 N m per m/s of flapping for the vehicle at hover speed,
-    and 4 x 0.06 N/(m/s) x 0.05 m of H-force moment."""
+    """The sourced defaults: ~0.0127 N m per m/s of flapping for the vehicle at hover speed,
+    and 4 x 0.06 N/(m/s) x 0.05 m of H-force moment: about the same."""
     d = AeroParams()
     flap = _moment_B(_aero(flapping_moment_Nm_per_mps_per_radps=d.flapping_moment_Nm_per_mps_per_radps), (1.0, 0, 0))
-    assert 0.06 < flap[1] < 0.075
+    assert 0.011 < flap[1] < 0.014
     hforce = _moment_B(_aero(rotor_drag_N_per_mps_per_radps=d.rotor_drag_N_per_mps_per_radps), (1.0, 0, 0))
     assert 0.010 < hforce[1] < 0.014
 
