@@ -12,13 +12,14 @@ Metrics (all over the criterion's window, sim seconds):
 | settling_time | time after ``step_t_s`` from which the signal stays within ``band`` of ``target`` |
 | rise_time | 10 % -> 90 % time of the step from ``start`` to ``target`` after ``step_t_s`` |
 | fraction_saturated | fraction of samples with any column <= ``lo`` or >= ``hi`` |
-| phase_lag_deg | phase of ``reference`` minus phase of ``signal`` at ``freq_hz`` (least-squares sine fit over the window; positive = the signal lags) |
+| phase_lag_deg | phase of ``reference`` minus phase of ``signal`` at ``freq_hz`` (least-squares sine fit over the window, each at its own sample instants; positive = the signal lags) |
 | rms_change_pct | 100 (RMS over ``window_s`` / RMS over ``baseline_window_s`` - 1) |
 
 Step metrics take their target either absolute (``target``, ``start``) or relative to the
 level before the step (``step_size``: target = mean over ``pre_step_s`` before ``step_t_s``
-+ step_size, start = that mean); ``band_fraction`` sets the settling band as a fraction of
-the step's size.
++ step_size, start = that mean) or relative to the level reached (``final_window_s``:
+target = the mean over that window, start = the pre-step mean); ``band_fraction`` sets the
+settling band as a fraction of the step's size.
 """
 
 from __future__ import annotations
@@ -61,11 +62,16 @@ def _sine_phase_rad(t_s: np.ndarray, v: np.ndarray, freq_hz: float) -> float:
 def _step_levels(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> tuple[float, float]:
     """(start, target) of a step criterion (absolute or relative to the pre-step level)."""
     assert c.step_t_s is not None
+    before = (t_s >= c.step_t_s - c.pre_step_s) & (t_s < c.step_t_s)
+    if c.final_window_s is not None:
+        final = (t_s >= c.final_window_s[0]) & (t_s <= c.final_window_s[1])
+        if not np.any(before) or not np.any(final):
+            return math.nan, math.nan
+        return float(np.mean(v[before])), float(np.mean(v[final]))
     if c.step_size is None:
         if c.target is None:
             raise ValueError(f"criterion {c.name!r}: metric {c.metric} needs target or step_size")
         return (math.nan if c.start is None else c.start), c.target
-    before = (t_s >= c.step_t_s - c.pre_step_s) & (t_s < c.step_t_s)
     if not np.any(before):
         return math.nan, math.nan
     level = float(np.mean(v[before]))
@@ -148,7 +154,10 @@ def _metric(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> float:
 
 def _phase_lag_deg(c: Criterion, trace: Trace, t_s: np.ndarray, values: np.ndarray) -> float:
     assert c.reference is not None and c.freq_hz is not None
-    t_r, ref = trace.signal(c.reference)
+    # each at its own instants: holding a 50 Hz series on the 400 Hz grid would add half a
+    # frame (10 ms, 7 deg at 2 Hz) of lag
+    t_r, ref = trace.samples(c.reference)
+    t_s, values = trace.samples(c.signal)
     t_a, a = _window(t_s, values, c.window_s)
     t_b, b = _window(t_r, ref, c.window_s)
     ok_a, ok_b = np.isfinite(a), np.isfinite(b)

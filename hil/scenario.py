@@ -144,6 +144,9 @@ class Criterion(_Strict):
     #: band as a fraction of the step size (0.05 = +-5 %)
     step_size: float | None = None
     pre_step_s: float = Field(default=1.0, gt=0)
+    #: step metrics against the level the signal settled at instead: target = its mean over
+    #: this window (classical overshoot and settling, relative to the final value)
+    final_window_s: tuple[float, float] | None = None
     band_fraction: float | None = Field(default=None, gt=0)
     #: phase_lag_deg: lag of ``signal`` behind ``reference`` at ``freq_hz`` (positive = late)
     reference: str | None = None
@@ -159,8 +162,8 @@ class Criterion(_Strict):
             raise ValueError("phase_lag_deg needs reference and freq_hz")
         if self.metric == "rms_change_pct" and (self.baseline_window_s is None or self.window_s is None):
             raise ValueError("rms_change_pct needs window_s and baseline_window_s")
-        if self.step_size is not None and self.target is not None:
-            raise ValueError("give target or step_size, not both")
+        if sum(x is not None for x in (self.step_size, self.target, self.final_window_s)) > 1:
+            raise ValueError("give one of target, step_size or final_window_s")
         return self
 
 

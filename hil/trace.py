@@ -61,6 +61,14 @@ class Trace:
             self._cache[key] = np.asarray(rows, dtype=float) if rows else np.zeros((0, 0))
         return self._cache[key]
 
+    def samples(self, name: str, grid: str = "truth") -> tuple[np.ndarray, np.ndarray]:
+        """(t_s, values) of a signal at its own instants: an irregular series as recorded (no
+        hold), anything else as ``signal`` gives it."""
+        if name in self._series:
+            times, values = self._series[name]
+            return np.asarray(times, dtype=np.int64) / 1e9, np.asarray(values, dtype=float)
+        return self.signal(name, grid)
+
     def signal(self, name: str, grid: str = "truth") -> tuple[np.ndarray, np.ndarray]:
         """(t_s, values) of a signal on the tick grid of ``grid``; KeyError if unknown.
 
