@@ -78,13 +78,27 @@ class Cell:
         return f"{statistics.median(v):.3g} ({min(v):.3g} - {max(v):.3g})"
 
 
+#: wall seconds one run may take before it is abandoned and flown again (a stalled run was
+#: seen once on a heavily loaded host; lockstep makes the retry give the same flight)
+RUN_TIMEOUT_S = 300.0
+RETRIES: list[str] = []
+
+
 async def _fly(scenario_name: str, seed: int, out_dir: Path, drop_payload: bool = False) -> RunResult:
     rig = load_rig(None)
     source = rig.scenario_path(scenario_name)
     scenario = load_scenario(source)
     if drop_payload:
         scenario = scenario.model_copy(update={"events": [e for e in scenario.events if e.kind != "payload"]})
-    return await run_flight_async(rig, scenario, scenario_source=source, mode=Mode.LOCKSTEP, seed=seed, out_dir=out_dir)
+    for attempt in range(2):
+        try:
+            return await asyncio.wait_for(
+                run_flight_async(rig, scenario, scenario_source=source, mode=Mode.LOCKSTEP, seed=seed, out_dir=out_dir),
+                RUN_TIMEOUT_S,
+            )
+        except TimeoutError:
+            RETRIES.append(f"{scenario_name} seed {seed} attempt {attempt + 1}")
+    raise RuntimeError(f"{scenario_name} seed {seed}: no result after 2 attempts")
 
 
 def _tracking_rms(result: RunResult, window: tuple[float, float]) -> float:
@@ -229,6 +243,8 @@ def write_report(seeds: list[int], cells: dict[int, Cell], payload: Cell, plots:
         vals = [f"{cells[i].values[k]:.3g}" if k < len(cells[i].values) else "-" for i in range(len(ROWS))]
         vals.append(f"{payload.values[k]:.3g}" if k < len(payload.values) else "-")
         lines.append(f"* seed {seed}: {', '.join(vals)}")
+    if RETRIES:
+        lines += ["", "Runs abandoned after " + f"{RUN_TIMEOUT_S:.0f} s of wall time and flown again: " + "; ".join(RETRIES)]
     lines += ["", "## Plots (seed " + str(seeds[0]) + ")", ""]
     lines += [f"![{p}](fidelity/{p})" for p in plots]
     text = "\n".join(lines) + "\n"
