@@ -224,16 +224,32 @@ class Plant:
         r20 = 2.0 * (qx * qz - qw * qy)
         r21 = 2.0 * (qy * qz + qw * qx)
         r22 = 1.0 - 2.0 * (qx * qx + qy * qy)
-        rot = ((r00, r01, r02), (r10, r11, r12), (r20, r21, r22))
-        # M = R^T G R (body-axes gradient), 3x3 in plain floats
-        gr = [[sum(g[3 * i + k] * rot[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
-        m = [[sum(rot[k][i] * gr[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+        g00, g01, g02, g10, g11, g12, g20, g21, g22 = g
+        # A = G R, then M = R^T A (body-axes gradient), unrolled: this runs every tick
+        a00 = g00 * r00 + g01 * r10 + g02 * r20
+        a01 = g00 * r01 + g01 * r11 + g02 * r21
+        a02 = g00 * r02 + g01 * r12 + g02 * r22
+        a10 = g10 * r00 + g11 * r10 + g12 * r20
+        a11 = g10 * r01 + g11 * r11 + g12 * r21
+        a12 = g10 * r02 + g11 * r12 + g12 * r22
+        a20 = g20 * r00 + g21 * r10 + g22 * r20
+        a21 = g20 * r01 + g21 * r11 + g22 * r21
+        a22 = g20 * r02 + g21 * r12 + g22 * r22
+        m00 = r00 * a00 + r10 * a10 + r20 * a20
+        m01 = r00 * a01 + r10 * a11 + r20 * a21
+        m02 = r00 * a02 + r10 * a12 + r20 * a22
+        m10 = r01 * a00 + r11 * a10 + r21 * a20
+        m11 = r01 * a01 + r11 * a11 + r21 * a21
+        m12 = r01 * a02 + r11 * a12 + r21 * a22
+        m20 = r02 * a00 + r12 * a10 + r22 * a20
+        m21 = r02 * a01 + r12 * a11 + r22 * a21
+        m22 = r02 * a02 + r12 * a12 + r22 * a22
         out: list[float] = []
         for hx, hy, hz in self._hubs_B:
             out += (
-                m[0][0] * hx + m[0][1] * hy + m[0][2] * hz,
-                m[1][0] * hx + m[1][1] * hy + m[1][2] * hz,
-                m[2][0] * hx + m[2][1] * hy + m[2][2] * hz,
+                m00 * hx + m01 * hy + m02 * hz,
+                m10 * hx + m11 * hy + m12 * hz,
+                m20 * hx + m21 * hy + m22 * hz,
             )
         return tuple(out)
 

@@ -168,3 +168,20 @@ def test_turbulence_makes_moments_only_with_the_rotational_components() -> None:
 def test_one_turbulence_model_at_a_time() -> None:
     with pytest.raises(ValueError, match="one turbulence model"):
         WindParams(dryden=True, turbulence_sigma_N_mps=(0.5, 0.5, 0.2))
+
+
+def test_gust_differences_per_hub_are_the_gradient_in_body_axes() -> None:
+    """Each hub's gust difference is R^T G_N R r_i for the tick's attitude (numpy oracle)."""
+    from hil.plant import quat
+
+    plant = make_plant(replace(PlantParams(), wind=WindParams(mean_N_mps=(3.0, -2.0, 0.0), dryden=True)), seed=2)
+    for k in range(1, 40):
+        plant.step(k * 2_500_000, (0.0,) * 4)
+    q = quat.from_euler(0.3, -0.2, 1.1)
+    plant.set_kinematic_state((0.0, 0.0, -5.0), q_NB=q)
+    g = np.array(plant._wind.gradient_N).reshape(3, 3)
+    assert np.any(g != 0.0)
+    offsets = np.array(plant._gust_offsets_B(plant._x)).reshape(4, 3)
+    r = np.array([[quat.rotate(q, (1.0, 0.0, 0.0)), quat.rotate(q, (0.0, 1.0, 0.0)), quat.rotate(q, (0.0, 0.0, 1.0))]])[0].T
+    for hub, off in zip(plant._hubs_B, offsets, strict=True):
+        np.testing.assert_allclose(off, r.T @ g @ r @ np.array(hub), atol=1e-12)
