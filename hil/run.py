@@ -90,6 +90,7 @@ def write_flight_config(rig: Rig, scenario: Scenario, ports: dict[str, PtyPort],
     """The flight code's own config, from the rig's template, pointing at the symlinks."""
     template_path = rig.flight_config_path
     config = load_toml(template_path)
+    config = deep_merge(config, rig.flight.overrides)
     config = deep_merge(config, scenario.flight)
     port_table = dict(config.get("ports", {}))
     for name in ("imu", "adc", "rc", "esc", "telemetry"):
