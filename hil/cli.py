@@ -389,6 +389,19 @@ def faults(
     print_catalogue(console, layer)
 
 
+@app.command()
+def fidelity(
+    seeds: Annotated[int, typer.Option(help="Fly seeds 1..N.")] = 5,
+    docs: Annotated[Path, typer.Option(help="Directory for fidelity.md and its plots.")] = Path("docs"),
+) -> None:
+    """Fly the paper's experiments over several seeds; write the fidelity table and plots."""
+    from hil.fidelity import main as fidelity_main
+
+    ok = fidelity_main(list(range(1, seeds + 1)), docs, progress=lambda msg: console.print(msg))
+    console.print(f"wrote {docs / 'fidelity.md'}: {'every row passes' if ok else 'some rows FAIL'}")
+    raise typer.Exit(0 if ok else 1)
+
+
 def main() -> None:  # pragma: no cover - console entry
     app()
 

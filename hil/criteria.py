@@ -7,10 +7,19 @@ Metrics (all over the criterion's window, sim seconds):
 | max_abs, rms, mean, min, max, final, p99_abs | of the signal (all columns pooled) |
 | amplitude | (max - min) / 2 |
 | rms_delta | RMS of the sample-to-sample change (control activity; chatter shows here) |
+| std | standard deviation (about the window's mean; an altitude hold's spread) |
 | overshoot | max(signal) - target after ``step_t_s`` (the step's direction is up) |
 | settling_time | time after ``step_t_s`` from which the signal stays within ``band`` of ``target`` |
 | rise_time | 10 % -> 90 % time of the step from ``start`` to ``target`` after ``step_t_s`` |
 | fraction_saturated | fraction of samples with any column <= ``lo`` or >= ``hi`` |
+| phase_lag_deg | phase of ``reference`` minus phase of ``signal`` at ``freq_hz`` (least-squares sine fit over the window, each at its own sample instants; positive = the signal lags) |
+| rms_change_pct | 100 (RMS over ``window_s`` / RMS over ``baseline_window_s`` - 1) |
+
+Step metrics take their target either absolute (``target``, ``start``) or relative to the
+level before the step (``step_size``: target = mean over ``pre_step_s`` before ``step_t_s``
++ step_size, start = that mean) or relative to the level reached (``final_window_s``:
+target = the mean over that window, start = the pre-step mean); ``band_fraction`` sets the
+settling band as a fraction of the step's size.
 """
 
 from __future__ import annotations
@@ -42,6 +51,33 @@ def _window(t_s: np.ndarray, values: np.ndarray, window: tuple[float, float] | N
     return t_s[mask], values[mask]
 
 
+def _sine_phase_rad(t_s: np.ndarray, v: np.ndarray, freq_hz: float) -> float:
+    """Phase of the ``freq_hz`` component of ``v`` (least squares on sin, cos and an offset)."""
+    w = 2.0 * math.pi * freq_hz
+    a = np.column_stack([np.sin(w * t_s), np.cos(w * t_s), np.ones_like(t_s)])
+    (s, c, _), *_ = np.linalg.lstsq(a, v, rcond=None)
+    return math.atan2(float(c), float(s))
+
+
+def _step_levels(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> tuple[float, float]:
+    """(start, target) of a step criterion (absolute or relative to the pre-step level)."""
+    assert c.step_t_s is not None
+    before = (t_s >= c.step_t_s - c.pre_step_s) & (t_s < c.step_t_s)
+    if c.final_window_s is not None:
+        final = (t_s >= c.final_window_s[0]) & (t_s <= c.final_window_s[1])
+        if not np.any(before) or not np.any(final):
+            return math.nan, math.nan
+        return float(np.mean(v[before])), float(np.mean(v[final]))
+    if c.step_size is None:
+        if c.target is None:
+            raise ValueError(f"criterion {c.name!r}: metric {c.metric} needs target or step_size")
+        return (math.nan if c.start is None else c.start), c.target
+    if not np.any(before):
+        return math.nan, math.nan
+    level = float(np.mean(v[before]))
+    return level, level + c.step_size
+
+
 def _metric(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> float:
     if v.size == 0:
         return math.nan
@@ -65,6 +101,8 @@ def _metric(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> float:
         return float(np.percentile(np.abs(flat), 99))
     if m == "amplitude":
         return float((np.max(flat) - np.min(flat)) / 2)
+    if m == "std":
+        return float(np.std(flat))
     if m == "rms_delta":
         d = np.diff(flat, axis=0)
         return float(np.sqrt(np.mean(np.square(d)))) if d.size else 0.0
@@ -76,17 +114,27 @@ def _metric(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> float:
             sat = np.any(sat, axis=1)
         return float(np.mean(sat))
     # step metrics
-    if c.target is None or c.step_t_s is None:
-        raise ValueError(f"criterion {c.name!r}: metric {m} needs target and step_t_s")
+    if c.step_t_s is None:
+        raise ValueError(f"criterion {c.name!r}: metric {m} needs step_t_s")
+    v1 = v if v.ndim == 1 else v.mean(axis=1)
+    start0, target = _step_levels(c, t_s, v1)
+    if not math.isfinite(target):
+        return math.nan
     after = t_s >= c.step_t_s
-    ts, vs = t_s[after], (v if v.ndim == 1 else v.mean(axis=1))[after]
+    ts, vs = t_s[after], v1[after]
     if vs.size == 0:
         return math.nan
     if m == "overshoot":
-        return float(np.max(vs) - c.target)
+        return float(np.max(vs) - target)
     if m == "settling_time":
-        band = c.band if c.band is not None else 0.25
-        outside = np.nonzero(np.abs(vs - c.target) > band)[0]
+        if c.band_fraction is not None:
+            step = target - start0 if math.isfinite(start0) else math.nan
+            band = c.band_fraction * abs(step)
+            if not math.isfinite(band):
+                raise ValueError(f"criterion {c.name!r}: band_fraction needs start or step_size")
+        else:
+            band = c.band if c.band is not None else 0.25
+        outside = np.nonzero(np.abs(vs - target) > band)[0]
         if outside.size == 0:
             return 0.0
         last = outside[-1]
@@ -94,14 +142,29 @@ def _metric(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> float:
             return math.inf
         return float(ts[last + 1] - c.step_t_s)
     if m == "rise_time":
-        start = c.start if c.start is not None else float(vs[0])
-        span = c.target - start
+        start = start0 if math.isfinite(start0) else float(vs[0])
+        span = target - start
         at_10 = np.nonzero((vs - start) >= 0.1 * span)[0]
         at_90 = np.nonzero((vs - start) >= 0.9 * span)[0]
         if at_10.size == 0 or at_90.size == 0:
             return math.inf
         return float(ts[at_90[0]] - ts[at_10[0]])
     raise ValueError(f"unknown metric {m}")
+
+
+def _phase_lag_deg(c: Criterion, trace: Trace, t_s: np.ndarray, values: np.ndarray) -> float:
+    assert c.reference is not None and c.freq_hz is not None
+    # each at its own instants: holding a 50 Hz series on the 400 Hz grid would add half a
+    # frame (10 ms, 7 deg at 2 Hz) of lag
+    t_r, ref = trace.samples(c.reference)
+    t_s, values = trace.samples(c.signal)
+    t_a, a = _window(t_s, values, c.window_s)
+    t_b, b = _window(t_r, ref, c.window_s)
+    ok_a, ok_b = np.isfinite(a), np.isfinite(b)
+    if np.count_nonzero(ok_a) < 8 or np.count_nonzero(ok_b) < 8:
+        return math.nan
+    lag = _sine_phase_rad(t_b[ok_b], b[ok_b], c.freq_hz) - _sine_phase_rad(t_a[ok_a], a[ok_a], c.freq_hz)
+    return math.degrees(math.remainder(lag, 2.0 * math.pi))
 
 
 def evaluate(criteria: list[Criterion], trace: Trace) -> list[CriterionResult]:
@@ -113,12 +176,18 @@ def evaluate(criteria: list[Criterion], trace: Trace) -> list[CriterionResult]:
         )
         try:
             t_s, values = trace.signal(c.signal)
-            t_w, v_w = (t_s, values) if c.metric in {"overshoot", "settling_time", "rise_time"} else _window(
-                t_s, values, c.window_s
-            )
-            if c.metric in {"overshoot", "settling_time", "rise_time"} and c.window_s is not None:
+            if c.metric == "phase_lag_deg":
+                value = _phase_lag_deg(c, trace, t_s, values)
+            elif c.metric == "rms_change_pct":
+                assert c.baseline_window_s is not None
+                _, after = _window(t_s, values, c.window_s)
+                _, before = _window(t_s, values, c.baseline_window_s)
+                rms_after = _metric(c.model_copy(update={"metric": "rms"}), t_s, after)
+                rms_before = _metric(c.model_copy(update={"metric": "rms"}), t_s, before)
+                value = 100.0 * (rms_after / rms_before - 1.0) if rms_before > 0.0 else math.nan
+            else:
                 t_w, v_w = _window(t_s, values, c.window_s)
-            value = _metric(c, t_w, v_w)
+                value = _metric(c, t_w, v_w)
         except (KeyError, ValueError) as exc:
             results.append(CriterionResult(c.name, c.signal, c.metric, math.nan, bound, False, str(exc)))
             continue

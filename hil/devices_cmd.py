@@ -22,7 +22,7 @@ from hil.bench import Mode, TickLoop
 from hil.devices import DeviceSet
 from hil.rig import Rig
 from hil.rundir import make_run_dir
-from hil.scenario import Scenario
+from hil.scenario import Scenario, apply_to_rig
 from hil.scenario_runner import ScenarioRunner
 from hil.transport.base import Port
 from hil.transport.pty import PtyPort

@@ -35,7 +35,7 @@ from hil.record.process import ProcessRecorder
 from hil.rig import Rig, load_rig
 from hil.rundir import make_run_dir
 from hil.runlog import RunLogger
-from hil.scenario import Scenario, load_scenario
+from hil.scenario import Scenario, apply_to_rig, load_scenario
 from hil.scenario_runner import ScenarioRunner
 from hil.stress import CpuHog
 from hil.timing import REALTIME_MAX_LATE_US, StreamingStats, compute_samples_us, realtime_held
@@ -92,6 +92,7 @@ def write_flight_config(rig: Rig, scenario: Scenario, ports: Mapping[str, Port],
     """The flight code's own config, from the rig's template, pointing at the symlinks."""
     template_path = rig.flight_config_path
     config = load_toml(template_path)
+    config = deep_merge(config, rig.flight.overrides)
     config = deep_merge(config, scenario.flight)
     port_table = dict(config.get("ports", {}))
     for name in ("imu", "adc", "rc", "esc", "telemetry"):
@@ -220,6 +221,7 @@ async def run_flight_async(
     duration_ns = scenario.duration_ns if duration_s is None else int(duration_s * 1e9)
     # The scenario is checked against the rig (faults, budgets) before anything is created:
     # a refused scenario raises ConfigError and leaves nothing behind.
+    rig = apply_to_rig(rig, scenario)  # the scenario's [wind] over the rig's
     runner = ScenarioRunner(scenario, rig, scenario_source)
     # Real serial ports open first, all or none: a missing/busy one leaves nothing behind.
     attachments = resolve_attachments(rig.ports, attach or {}, PORTS, command="run")

@@ -107,9 +107,24 @@ class RunLogger:
                 self._telemetry(rec.t_ns, rec.t_host_ns, t_frame)
 
     def _telemetry(self, t_ns: int, t_host_ns: int, frame: dict[str, Any]) -> None:
+        # In the trace, a frame's values are stamped with the sim time of the IMU sample they
+        # belong to (``t_s``: sensor time since the first sample, which is sim time 0), not
+        # with their arrival over the radio: criteria compare them with truth at sample time.
+        # A stamp that is not plausible (wrapped, or later than arrival) falls back.
+        t_sample = frame.get("t_s")
+        t_trace = t_ns
+        if isinstance(t_sample, float):
+            t_sample_ns = round(t_sample * 1e9)
+            if 0 <= t_ns - t_sample_ns < 1_000_000_000:
+                t_trace = t_sample_ns
         for key, value in frame.items():
             if isinstance(value, (int, float)) and not isinstance(value, bool):
-                self.trace.point(f"tm.{key}", t_ns, value)
+                self.trace.point(f"tm.{key}", t_trace, value)
+        tau = frame.get("tau_applied_Nm")
+        if isinstance(tau, list) and len(tau) == 3:
+            # the torques the mixer produced (control activity in N m)
+            for axis, value in zip(("roll", "pitch", "yaw"), tau, strict=True):
+                self.trace.point(f"tm.tau_{axis}_Nm", t_trace, value)
         if self.out is not None:
             self.out.log("/fc/telemetry", t_ns, frame, t_host_ns)
 

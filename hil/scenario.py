@@ -13,6 +13,10 @@ time (seconds in the file, ns inside).
     t_s = 0.5
     action = "arm"
 
+    [wind]                # optional: replaces the rig's [plant.wind] (hil/plant/params.py)
+    mean_N_mps = [2.0, 0.0, 0.0]
+    dryden = true
+
     [[events]]
     t_s = 15.0
     kind = "payload"
@@ -28,12 +32,14 @@ time (seconds in the file, ns inside).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hil.config import ConfigError, load_toml, validate
+from hil.plant.params import WindParams
 
 S_TO_NS = 1_000_000_000
 
@@ -118,8 +124,9 @@ class Criterion(_Strict):
     name: str
     signal: str
     metric: Literal[
-        "max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude",
+        "max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std",
         "rms_delta", "overshoot", "settling_time", "fraction_saturated", "rise_time",
+        "phase_lag_deg", "rms_change_pct",
     ]
     window_s: tuple[float, float] | None = None
     max: float | None = None
@@ -132,17 +139,40 @@ class Criterion(_Strict):
     start: float | None = None
     lo: float | None = None
     hi: float | None = None
+    #: step metrics against the height before the step: target = mean of the signal over
+    #: ``pre_step_s`` before ``step_t_s`` + ``step_size`` (start = that mean); the settling
+    #: band as a fraction of the step size (0.05 = +-5 %)
+    step_size: float | None = None
+    pre_step_s: float = Field(default=1.0, gt=0)
+    #: step metrics against the level the signal settled at instead: target = its mean over
+    #: this window (classical overshoot and settling, relative to the final value)
+    final_window_s: tuple[float, float] | None = None
+    band_fraction: float | None = Field(default=None, gt=0)
+    #: phase_lag_deg: lag of ``signal`` behind ``reference`` at ``freq_hz`` (positive = late)
+    reference: str | None = None
+    freq_hz: float | None = Field(default=None, gt=0)
+    #: rms_change_pct: 100 (RMS over window_s / RMS over baseline_window_s - 1)
+    baseline_window_s: tuple[float, float] | None = None
 
     @model_validator(mode="after")
     def _has_bound(self) -> Criterion:
         if self.max is None and self.min is None:
             raise ValueError("a criterion needs max and/or min")
+        if self.metric == "phase_lag_deg" and (self.reference is None or self.freq_hz is None):
+            raise ValueError("phase_lag_deg needs reference and freq_hz")
+        if self.metric == "rms_change_pct" and (self.baseline_window_s is None or self.window_s is None):
+            raise ValueError("rms_change_pct needs window_s and baseline_window_s")
+        if sum(x is not None for x in (self.step_size, self.target, self.final_window_s)) > 1:
+            raise ValueError("give one of target, step_size or final_window_s")
         return self
 
 
 class Scenario(_Strict):
     scenario: ScenarioHeader
     flight: dict[str, Any] = {}
+    #: Replaces the rig's ``[plant.wind]`` for this run (mean wind, turbulence), e.g.
+    #: ``[wind] mean_N_mps = [2.0, 1.0, 0.0]`` + ``dryden = true``. Same keys and checks.
+    wind: WindParams | None = None
     sticks: list[StickEntry] = []
     events: list[PlantEvent] = []
     faults: list[dict[str, Any]] = []
@@ -156,6 +186,13 @@ class Scenario(_Strict):
     @property
     def duration_ns(self) -> int:
         return int(round(self.scenario.duration_s * S_TO_NS))
+
+
+def apply_to_rig(rig: Any, scenario: Scenario) -> Any:
+    """The rig as flown in ``scenario``: its ``[wind]`` (if any) replaces ``[plant.wind]``."""
+    if scenario.wind is None:
+        return rig
+    return replace(rig, plant=replace(rig.plant, wind=scenario.wind))
 
 
 def load_scenario(path: Path) -> Scenario:

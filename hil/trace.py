@@ -97,11 +97,21 @@ class Trace:
             self._cache[key] = arr
         return self._cache[key]
 
+    def samples(self, name: str, grid: str = "truth") -> tuple[np.ndarray, np.ndarray]:
+        """(t_s, values) of a signal at its own instants: an irregular series as recorded (no
+        hold), anything else as ``signal`` gives it."""
+        if name in self._series:
+            times, values = self._series[name]
+            # copies: a view would pin the growing array.array buffers (BufferError on append)
+            return np.array(times, dtype=np.int64) / 1e9, np.array(values, dtype=float)
+        return self.signal(name, grid)
+
     def signal(self, name: str, grid: str = "truth") -> tuple[np.ndarray, np.ndarray]:
         """(t_s, values) of a signal on the tick grid of ``grid``; KeyError if unknown.
 
         ``"a - b"`` is the difference of two signals (e.g. a tracking error
-        ``truth.roll_deg - tm.roll_ref_deg``).
+        ``truth.roll_deg - tm.roll_ref_deg``); when one side is an irregular series it is
+        taken at that series' own instants, the tick signal at the tick at or before each.
         """
         if " - " in name:
             left, right = (part.strip() for part in name.split(" - ", 1))
@@ -115,6 +125,10 @@ class Trace:
                 idx = np.searchsorted(grid_ns, st_ns, side="right") - 1
                 ok = idx >= 0
                 return st_ns[ok] / 1e9, a[idx[ok]] - np.array(series_v, dtype=float)[ok]
+            if left in self._series and right not in self._series:
+                # the same, mirrored (e.g. an estimate against truth: ``tm.z_hat_m - truth.h_m``)
+                t_s, d = self.signal(f"{right} - {left}", grid)
+                return t_s, -d
             t_s, a = self.signal(left, grid)
             _, b = self.signal(right, grid)
             return t_s, a - b

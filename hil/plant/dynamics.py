@@ -12,8 +12,10 @@ State ``x`` (list of 17 floats)::
     10-12 w_B      body rates (rad/s)
     13-16 omega_i  rotor speeds (rad/s), i = rotor index
 
-Inputs ``u`` (tuple of 8 floats), held over a step: four rotor speed commands (rad/s), the
-wind (NED, m/s) and the air density ratio sigma (ISA sea level = 1).
+Inputs ``u`` (tuple of 20 floats), held over a step: four rotor speed commands (rad/s), the
+wind at the CG (NED, m/s), the air density ratio sigma (ISA sea level = 1), then for each
+rotor i the wind at its hub minus the wind at the CG, in body axes (m/s; 3 floats per
+rotor, rotor 0 first): the spatial turbulence gradient across the airframe (wind.py).
 
 Forces and moments (all at/about the CG):
 
@@ -21,8 +23,14 @@ Forces and moments (all at/about the CG):
   ``s_i k_Q f_i sigma omega_i^2`` and motor reaction ``s_i J_r d omega_i/dt`` about z_B
   (``s_i = +1`` counter-clockwise from above); rotor angular momentum
   ``-s_i J_r omega_i e_z`` enters the gyroscopic term.
-* drag on the air-relative velocity in body axes: linear + quadratic per axis, plus rotor
-  drag ``c sum(omega)`` on x and y; rotational damping per axis; all scale with sigma.
+* body (parasitic) drag on the CG's air-relative velocity in body axes, linear + quadratic
+  per axis, acting at the centre of pressure ``r_cp`` (a moment ``r_cp x F`` about the CG).
+* per rotor, from the air-relative velocity at its hub ``v_i = v_B + w x r_i - dw_i``
+  (body motion, body rotation and the local gust; aero.py has the model and its sources):
+  rotor drag (H-force) ``-sigma omega_i (k_d v_ix, k_d v_iy, k_z v_iz)`` at the hub, and
+  the blade-flapping hub moment ``sigma k_f omega_i (-v_iy, v_ix, 0)`` (disk tilts away from
+  the relative wind: nose up when moving forward).
+* rotational damping per axis; all aerodynamic terms scale with sigma.
 * ground effect ``g_e`` from the height of the level rotor plane (see aero.py).
 * gravity ``+g`` along z_N.
 
@@ -37,7 +45,7 @@ from dataclasses import dataclass
 Vec3 = tuple[float, float, float]
 Mat3 = tuple[Vec3, Vec3, Vec3]
 State = list[float]
-Inputs = tuple[float, float, float, float, float, float, float, float]
+Inputs = tuple[float, ...]  # 20 floats, see the module docstring
 Derivative = Callable[[Sequence[float], Inputs], tuple[float, ...]]
 
 N_STATES = 17
@@ -51,9 +59,10 @@ class DynamicsConstants:
     mass_kg: float
     inertia_B_kgm2: Mat3
     inverse_inertia_B: Mat3
-    #: Hub x, y relative to the CG (body FRD, m).
+    #: Hub x, y, z relative to the CG (body FRD, m).
     rotor_x_m: tuple[float, float, float, float]
     rotor_y_m: tuple[float, float, float, float]
+    rotor_z_m: tuple[float, float, float, float]
     #: k_T * thrust factor (N/(rad/s)^2).
     k_T: tuple[float, float, float, float]
     #: spin sign * k_Q * thrust factor (N m/(rad/s)^2).
@@ -64,7 +73,13 @@ class DynamicsConstants:
     tau_down_s: float
     linear_drag: Vec3
     quadratic_drag: Vec3
+    #: Rotor drag in the rotor plane / along the shaft, per rotor (N per m/s per rad/s).
     rotor_drag: float
+    rotor_drag_z: float
+    #: Blade-flapping hub moment per rotor (N m per m/s per rad/s).
+    flapping: float
+    #: Body centre of pressure relative to the CG (body FRD, m).
+    cp_m: Vec3
     angular_drag: Vec3
     #: Rotor-plane height above ground is ``ge_z0_m - p_N[2]`` (level approximation).
     ge_z0_m: float
@@ -80,6 +95,7 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
     (ixx, ixy, ixz), (iyx, iyy, iyz), (izx, izy, izz) = k.inverse_inertia_B
     rx0, rx1, rx2, rx3 = k.rotor_x_m
     ry0, ry1, ry2, ry3 = k.rotor_y_m
+    rz0, rz1, rz2, rz3 = k.rotor_z_m
     kt0, kt1, kt2, kt3 = k.k_T
     kq0, kq1, kq2, kq3 = k.k_Q_signed
     jr0, jr1, jr2, jr3 = k.j_rotor_signed
@@ -87,7 +103,11 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
     td = 1.0 / k.tau_down_s
     dlx, dly, dlz = k.linear_drag
     dqx, dqy, dqz = k.quadratic_drag
-    krd = k.rotor_drag
+    kd = k.rotor_drag
+    kz = k.rotor_drag_z
+    kf = k.flapping
+    cpx, cpy, cpz = k.cp_m
+    rotor_aero = kd > 0.0 or kz > 0.0 or kf > 0.0
     dax, day, daz = k.angular_drag
     ge_z0 = k.ge_z0_m
     ge_cut = k.ge_cutoff_m
@@ -95,7 +115,7 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
 
     def derivative(x: Sequence[float], u: Inputs) -> tuple[float, ...]:
         _, _, pz, vx, vy, vz, qw, qx, qy, qz, wx, wy, wz, o0, o1, o2, o3 = x
-        c0, c1, c2, c3, wn, we, wd, sig = u
+        c0, c1, c2, c3, wn, we, wd, sig, g0x, g0y, g0z, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z = u
         # Motor lag, separate time constants up/down.
         d0 = (c0 - o0) * (tu if c0 > o0 else td)
         d1 = (c1 - o1) * (tu if c1 > o1 else td)
@@ -120,23 +140,70 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
         r20 = 2.0 * (xz - wqy)
         r21 = 2.0 * (yz + wqx)
         r22 = 1.0 - 2.0 * (xx + yy)
-        # Air-relative velocity in body axes, then drag.
+        # Air-relative velocity of the CG in body axes, then body drag at the centre of pressure.
         ux, uy, uz = vx - wn, vy - we, vz - wd
         bx = r00 * ux + r10 * uy + r20 * uz
         by = r01 * ux + r11 * uy + r21 * uz
         bz = r02 * ux + r12 * uy + r22 * uz
-        kr = krd * (o0 + o1 + o2 + o3)
-        fx = -sig * (dlx + kr + dqx * abs(bx)) * bx
-        fy = -sig * (dly + kr + dqy * abs(by)) * by
-        fz = -sig * (dlz + dqz * abs(bz)) * bz - (t0 + t1 + t2 + t3)
+        ex = -sig * (dlx + dqx * abs(bx)) * bx
+        ey = -sig * (dly + dqy * abs(by)) * by
+        ez = -sig * (dlz + dqz * abs(bz)) * bz
+        mx = cpy * ez - cpz * ey
+        my = cpz * ex - cpx * ez
+        mz = cpx * ey - cpy * ex
+        fx, fy, fz = ex, ey, ez - (t0 + t1 + t2 + t3)
+        if rotor_aero:
+            # Per rotor: hub air velocity (CG + w x r - local gust), H-force at the hub and its
+            # moment r x H, flapping moment. Unrolled: a loop over tuples costs ~2x here.
+            sd, sz, sf = sig * kd, sig * kz, sig * kf
+            hvx = bx + wy * rz0 - wz * ry0 - g0x
+            hvy = by + wz * rx0 - wx * rz0 - g0y
+            hvz = bz + wx * ry0 - wy * rx0 - g0z
+            hx_, hy_, hz_ = -sd * o0 * hvx, -sd * o0 * hvy, -sz * o0 * hvz
+            fx += hx_
+            fy += hy_
+            fz += hz_
+            mx += ry0 * hz_ - rz0 * hy_ - sf * o0 * hvy
+            my += rz0 * hx_ - rx0 * hz_ + sf * o0 * hvx
+            mz += rx0 * hy_ - ry0 * hx_
+            hvx = bx + wy * rz1 - wz * ry1 - g1x
+            hvy = by + wz * rx1 - wx * rz1 - g1y
+            hvz = bz + wx * ry1 - wy * rx1 - g1z
+            hx_, hy_, hz_ = -sd * o1 * hvx, -sd * o1 * hvy, -sz * o1 * hvz
+            fx += hx_
+            fy += hy_
+            fz += hz_
+            mx += ry1 * hz_ - rz1 * hy_ - sf * o1 * hvy
+            my += rz1 * hx_ - rx1 * hz_ + sf * o1 * hvx
+            mz += rx1 * hy_ - ry1 * hx_
+            hvx = bx + wy * rz2 - wz * ry2 - g2x
+            hvy = by + wz * rx2 - wx * rz2 - g2y
+            hvz = bz + wx * ry2 - wy * rx2 - g2z
+            hx_, hy_, hz_ = -sd * o2 * hvx, -sd * o2 * hvy, -sz * o2 * hvz
+            fx += hx_
+            fy += hy_
+            fz += hz_
+            mx += ry2 * hz_ - rz2 * hy_ - sf * o2 * hvy
+            my += rz2 * hx_ - rx2 * hz_ + sf * o2 * hvx
+            mz += rx2 * hy_ - ry2 * hx_
+            hvx = bx + wy * rz3 - wz * ry3 - g3x
+            hvy = by + wz * rx3 - wx * rz3 - g3y
+            hvz = bz + wx * ry3 - wy * rx3 - g3z
+            hx_, hy_, hz_ = -sd * o3 * hvx, -sd * o3 * hvy, -sz * o3 * hvz
+            fx += hx_
+            fy += hy_
+            fz += hz_
+            mx += ry3 * hz_ - rz3 * hy_ - sf * o3 * hvy
+            my += rz3 * hx_ - rx3 * hz_ + sf * o3 * hvx
+            mz += rx3 * hy_ - ry3 * hx_
         ax = (r00 * fx + r01 * fy + r02 * fz) * minv
         ay = (r10 * fx + r11 * fy + r12 * fz) * minv
         az = (r20 * fx + r21 * fy + r22 * fz) * minv + g
-        # Moments about the CG.
+        # Thrust and rotor moments about the CG.
         hr = jr0 * o0 + jr1 * o1 + jr2 * o2 + jr3 * o3
-        mx = -(ry0 * t0 + ry1 * t1 + ry2 * t2 + ry3 * t3) - sig * dax * wx + wy * hr
-        my = rx0 * t0 + rx1 * t1 + rx2 * t2 + rx3 * t3 - sig * day * wy - wx * hr
-        mz = (
+        mx += -(ry0 * t0 + ry1 * t1 + ry2 * t2 + ry3 * t3) - sig * dax * wx + wy * hr
+        my += rx0 * t0 + rx1 * t1 + rx2 * t2 + rx3 * t3 - sig * day * wy - wx * hr
+        mz += (
             sig * (kq0 * o0 * o0 + kq1 * o1 * o1 + kq2 * o2 * o2 + kq3 * o3 * o3)
             + jr0 * d0
             + jr1 * d1

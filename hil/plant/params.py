@@ -191,10 +191,11 @@ class BatteryParams:
 
 @dataclass(frozen=True)
 class AeroParams:
-    """Body and rotor drag, ground effect on thrust, rotor-wash error at the static port.
+    """Body and rotor drag, flapping, ground effect on thrust, rotor-wash error at the static port.
 
-    Drag forces act at the CG, on the air-relative velocity in body axes, and scale with
-    air density (values are for ISA sea level).
+    Body drag acts at the centre of pressure on the CG's air-relative velocity in body axes;
+    rotor drag and flapping act at each hub on that hub's air-relative velocity (including
+    body rotation and the local gust). All scale with air density (values for ISA sea level).
     """
 
     __pydantic_config__ = {"extra": "forbid"}
@@ -204,9 +205,36 @@ class AeroParams:
     linear_drag_B_N_per_mps: Vec3 = (0.10, 0.10, 0.20)
     #: Quadratic drag F = -c v|v| per body axis (vertical 0.05 as in paper.md 3.5).
     quadratic_drag_B_N_per_mps2: Vec3 = (0.03, 0.03, 0.05)
-    #: Rotor (blade-flapping/induced) drag: F_xy = -c * sum(omega_i) * v_xy (assumed: 0.25
-    #: N/(m/s) at hover speed).
+    #: Rotor drag (H-force) in the rotor plane, per rotor, at its hub: F = -k_d * omega * v_hub
+    #: (RotorPy's ``k_d`` form; Martin & Salaun, ICRA 2010, "The true role of accelerometer
+    #: feedback in quadrotor control"). 1.0e-4 is 0.06 N/(m/s) per rotor at hover speed, 0.24
+    #: N/(m/s) for the vehicle: below the momentum drag rho A v_i = 0.35 N/(m/s) per rotor of
+    #: a 12 in rotor at 2.7 N (an upper bound); RotorPy's Hummingbird has 1.19e-4 for 10 cm
+    #: rotors (assumed; docs/aerodynamics.md).
     rotor_drag_N_per_mps_per_radps: float = 1.0e-4
+    #: Rotor drag along the shaft (RotorPy's ``k_z``, "induced inflow"): a rotor moving up
+    #: through the air loses thrust, F_z = -k_z * omega * v_hub,z. Blade-element momentum
+    #: theory in hover (Leishman, Principles of Helicopter Aerodynamics, 2nd ed., ch. 2-3):
+    #: dT/dV_c = -2 rho A v_i * sigma a / (16 lambda_i + sigma a) = -0.33 N/(m/s) per rotor
+    #: for the APC 12x4.5 (solidity 0.10, lift slope 5.7, v_i = 3.9 m/s, lambda_i = 0.042),
+    #: / 607 rad/s hover speed = 5.4e-4. It is also what turns vertical gusts that differ
+    #: from rotor to rotor, and roll/pitch rates, into moments (docs/aerodynamics.md).
+    rotor_drag_vertical_N_per_mps_per_radps: float = 5.4e-4
+    #: Blade-flapping hub moment per rotor, M = k_f * omega * (e_z x v_hub) (RotorPy's
+    #: ``k_flap`` form, with the physical sign: the disk tilts away from the relative wind,
+    #: nose up when moving forward). Hub-spring model of Hoffmann et al. (AIAA GNC 2007,
+    #: "Quadrotor helicopter flight dynamics and control: theory and experiment"),
+    #: M = k_beta a1s: longitudinal flapping a1s = mu (8/3 theta_0.75 - 2 lambda_i) (Prouty)
+    #: = 3.6e-3 rad per m/s for the APC 12x4.5 at hover; hub stiffness k_beta = I_beta
+    #: Omega^2 3e/(2(1-e)) (Padfield, Helicopter Flight Dynamics, ch. 3) with I_beta = 7.7e-5
+    #: kg m^2 and an equivalent hinge offset e = 0.02 (assumed: a flexible plastic prop;
+    #: full-scale hingeless rotors have 0.1-0.15, which would give 2.8e-5): 0.87 N m/rad,
+    #: 3.1e-3 N m per m/s per rotor at 607 rad/s -> 5.2e-6. The thrust tilt itself is in
+    #: the H-force above. docs/aerodynamics.md has the derivation and the sensitivity.
+    flapping_moment_Nm_per_mps_per_radps: float = 5.2e-6
+    #: Where the body drag acts, relative to the body origin (body FRD, m): the landing gear
+    #: and the battery hang below the hub, so the centre of pressure sits below it (assumed).
+    centre_of_pressure_B_m: Vec3 = (0.0, 0.0, 0.03)
     #: Rotational damping per body axis (assumed negligible).
     angular_drag_B_Nm_per_radps: Vec3 = (0.0, 0.0, 0.0)
     #: Ground effect on every rotor: Sanchez-Cuevas, Heredia, Ollero, Int. J. Aerospace Eng.
@@ -225,7 +253,12 @@ class AeroParams:
     def __post_init__(self) -> None:
         vals = self.linear_drag_B_N_per_mps + self.quadratic_drag_B_N_per_mps2
         _require(all(v >= 0.0 for v in vals + self.angular_drag_B_Nm_per_radps), "drag must be >= 0")
-        _require(self.rotor_drag_N_per_mps_per_radps >= 0.0, "rotor drag must be >= 0")
+        _require(
+            self.rotor_drag_N_per_mps_per_radps >= 0.0 and self.rotor_drag_vertical_N_per_mps_per_radps >= 0.0,
+            "rotor drag must be >= 0",
+        )
+        _require(self.flapping_moment_Nm_per_mps_per_radps >= 0.0, "flapping moment must be >= 0")
+        _require(_finite(self.centre_of_pressure_B_m), "centre_of_pressure_B_m must be finite")
         _require(self.ground_effect_body_coeff >= 0.0, "ground_effect_body_coeff must be >= 0")
         _require(self.ground_effect_max_gain >= 1.0, "ground_effect_max_gain must be >= 1")
         _require(self.baro_ground_effect_height_m > 0.0, "baro_ground_effect_height_m must be > 0")
@@ -267,11 +300,12 @@ class GustParams:
 
 @dataclass(frozen=True)
 class WindParams:
-    """Mean wind + Dryden-like turbulence + scheduled gusts. Calm by default.
+    """Mean wind + turbulence + scheduled gusts. Calm by default.
 
-    Turbulence is a first-order Gauss-Markov process per NED axis (the Dryden longitudinal
-    form), with correlation time length / max(|mean horizontal wind|, min speed): Taylor's
-    frozen turbulence carried past a hovering vehicle by the mean wind.
+    Turbulence is either the Dryden model (``dryden = true``: MIL-F-8785C spectra and
+    low-altitude intensities, with rotational components) or a simpler first-order
+    Gauss-Markov process per NED axis with given RMS (``turbulence_sigma_N_mps``). Both are
+    frozen turbulence carried past the vehicle at max(|mean horizontal wind|, min speed).
     """
 
     __pydantic_config__ = {"extra": "forbid"}
@@ -286,6 +320,20 @@ class WindParams:
     #: Turbulence is sampled on this sim-time grid (independent of how step() is called).
     update_period_ns: int = 2_500_000
     gusts: tuple[GustParams, ...] = ()
+    #: Dryden turbulence (MIL-F-8785C / MIL-HDBK-1797, hil/plant/dryden.py) instead of the
+    #: per-axis Gauss-Markov above: intensities and scale lengths from the 20 ft wind W20 and
+    #: the vehicle's height, plus the spatial gradients (p_g, q_g, r_g) that differ from rotor
+    #: to rotor and so make moments.
+    dryden: bool = False
+    #: W20, the mean wind at 20 ft (m/s) that sets the intensities (sigma_w = 0.1 W20).
+    #: None: the horizontal speed of ``mean_N_mps``. MIL-F-8785C: light 15 kt (7.7 m/s),
+    #: moderate 30 kt, severe 45 kt.
+    dryden_w20_mps: float | None = None
+    #: The span ``b`` of the rotational-gust filters: rotor tip to rotor tip across the
+    #: X frame, 2 x 0.25 m / sqrt(2) between hubs + 2 x 0.1524 m rotor radius = 0.66 m (Table 1).
+    dryden_span_m: float = 0.66
+    #: The spatial gradients (rotational gusts) on; off leaves a gust uniform over the airframe.
+    dryden_gradients: bool = True
 
     def __post_init__(self) -> None:
         _require(all(s >= 0.0 for s in self.turbulence_sigma_N_mps), "turbulence sigma must be >= 0")
@@ -293,6 +341,12 @@ class WindParams:
         _require(self.turbulence_min_speed_mps > 0.0, "turbulence_min_speed_mps must be > 0")
         _require(self.update_period_ns > 0, "update_period_ns must be > 0")
         _require(_finite(self.mean_N_mps), "mean wind must be finite")
+        _require(self.dryden_span_m > 0.0, "dryden_span_m must be > 0")
+        _require(self.dryden_w20_mps is None or self.dryden_w20_mps >= 0.0, "dryden_w20_mps must be >= 0")
+        _require(
+            not (self.dryden and any(s > 0.0 for s in self.turbulence_sigma_N_mps)),
+            "choose one turbulence model: dryden or turbulence_sigma_N_mps",
+        )
 
 
 @dataclass(frozen=True)

@@ -31,11 +31,12 @@ from hil.plant.params import GustShape, PlantParams
 from hil.plant.records import PlantState, SensorTruth
 from hil.plant.rigid_body import MassProperties, base_mass_properties, with_payload
 from hil.plant.rotors import lag_step, rotor_geometry
-from hil.plant.wind import WindModel
+from hil.plant.wind import ZERO_GRADIENT, WindModel
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
 Four = tuple[float, float, float, float]
+_NO_GUST_OFFSETS = (0.0,) * 12
 
 __all__ = ["Plant", "PlantState", "SensorTruth"]
 
@@ -71,7 +72,7 @@ class Plant:
         self._wind_now: Vec3 = self._wind.at(t0_ns)
         self._sigma = self._atmo.density_ratio(self._gear_m)
         self._omega_max = self._omega_max_at(self._battery.voltage_V)
-        self._u: Inputs = (0.0, 0.0, 0.0, 0.0, *self._wind_now, self._sigma)
+        self._u: Inputs = (0.0, 0.0, 0.0, 0.0, *self._wind_now, self._sigma, *_NO_GUST_OFFSETS)
         q0 = quat.from_euler(0.0, 0.0, params.initial_yaw_rad)
         self._x = [0.0] * 6 + list(q0) + [0.0] * 7
         self._on_ground = True
@@ -87,6 +88,7 @@ class Plant:
         """Recompute the derivative's constants after a mass or rotor change."""
         rp, ap = self.params.rotors, self.params.aero
         c = self._mass.cg_B_m
+        cp = ap.centre_of_pressure_B_m
         pos = self._geom.position_B_m
         s = self._geom.spin_sign
         f = self._factor
@@ -97,6 +99,7 @@ class Plant:
             inverse_inertia_B=self._mass.inverse_inertia,
             rotor_x_m=tuple(p[0] - c[0] for p in pos),  # type: ignore[arg-type]
             rotor_y_m=tuple(p[1] - c[1] for p in pos),  # type: ignore[arg-type]
+            rotor_z_m=tuple(p[2] - c[2] for p in pos),  # type: ignore[arg-type]
             k_T=tuple(rp.k_T_N_per_radps2 * fi for fi in f),  # type: ignore[arg-type]
             k_Q_signed=tuple(si * rp.k_Q_Nm_per_radps2 * fi for si, fi in zip(s, f, strict=True)),  # type: ignore[arg-type]
             j_rotor_signed=tuple(si * rp.rotor_inertia_kgm2 for si in s),  # type: ignore[arg-type]
@@ -105,12 +108,16 @@ class Plant:
             linear_drag=ap.linear_drag_B_N_per_mps,
             quadratic_drag=ap.quadratic_drag_B_N_per_mps2,
             rotor_drag=ap.rotor_drag_N_per_mps_per_radps,
+            rotor_drag_z=ap.rotor_drag_vertical_N_per_mps_per_radps,
+            flapping=ap.flapping_moment_Nm_per_mps_per_radps,
+            cp_m=(cp[0] - c[0], cp[1] - c[1], cp[2] - c[2]),
             angular_drag=ap.angular_drag_B_Nm_per_radps,
             ge_z0_m=c[2] + self._gear_m - rp.rotor_z_B_m,
             ge_cutoff_m=self._ge.cutoff_m,
             ge_gain=self._ge.gain,
         )
         self._k = k
+        self._hubs_B = tuple(zip(k.rotor_x_m, k.rotor_y_m, k.rotor_z_m, strict=True))
         self._f = make_derivative(k)
         self._state = None
 
@@ -167,8 +174,9 @@ class Plant:
         h_s = dt_ns * 1e-9 / n
         x = self._x
         cg = self._mass.cg_B_m
-        self._wind_now = self._wind.at(t_ns)
-        self._sigma = sigma = self._atmo.density_ratio(ground.origin_height_m(x, cg) + self._gear_m)
+        h_m = ground.origin_height_m(x, cg)
+        self._wind_now = self._wind.at(t_ns, h_m)
+        self._sigma = sigma = self._atmo.density_ratio(h_m + self._gear_m)
         bat = self._battery
         bat.update(self._shaft_power_W(x[13:17], sigma), p.rotors.efficiency, dt_ns * 1e-9)
         if bat.power_limited:
@@ -178,7 +186,8 @@ class Plant:
         self._omega_max = om = self._omega_max_at(bat.voltage_V)
         th = self._throttle
         wn, we, wd = self._wind_now
-        u: Inputs = (th[0] * om, th[1] * om, th[2] * om, th[3] * om, wn, we, wd, sigma)
+        offsets = self._gust_offsets_B(x)
+        u: Inputs = (th[0] * om, th[1] * om, th[2] * om, th[3] * om, wn, we, wd, sigma, *offsets)
         self._u = u
         f = self._f
         for k in range(n):
@@ -198,6 +207,51 @@ class Plant:
                 ground.rest(x, cg)
                 self._on_ground = True
         self._x = x
+
+    def _gust_offsets_B(self, x: Sequence[float]) -> tuple[float, ...]:
+        """Wind at each hub minus wind at the CG, body axes (12 floats), from the wind's NED
+        gradient and this tick's attitude: ``R^T G_N R r_i`` (held over the tick)."""
+        g = self._wind.gradient_N
+        if g is ZERO_GRADIENT:
+            return _NO_GUST_OFFSETS
+        qw, qx, qy, qz = x[6], x[7], x[8], x[9]
+        r00 = 1.0 - 2.0 * (qy * qy + qz * qz)
+        r01 = 2.0 * (qx * qy - qw * qz)
+        r02 = 2.0 * (qx * qz + qw * qy)
+        r10 = 2.0 * (qx * qy + qw * qz)
+        r11 = 1.0 - 2.0 * (qx * qx + qz * qz)
+        r12 = 2.0 * (qy * qz - qw * qx)
+        r20 = 2.0 * (qx * qz - qw * qy)
+        r21 = 2.0 * (qy * qz + qw * qx)
+        r22 = 1.0 - 2.0 * (qx * qx + qy * qy)
+        g00, g01, g02, g10, g11, g12, g20, g21, g22 = g
+        # A = G R, then M = R^T A (body-axes gradient), unrolled: this runs every tick
+        a00 = g00 * r00 + g01 * r10 + g02 * r20
+        a01 = g00 * r01 + g01 * r11 + g02 * r21
+        a02 = g00 * r02 + g01 * r12 + g02 * r22
+        a10 = g10 * r00 + g11 * r10 + g12 * r20
+        a11 = g10 * r01 + g11 * r11 + g12 * r21
+        a12 = g10 * r02 + g11 * r12 + g12 * r22
+        a20 = g20 * r00 + g21 * r10 + g22 * r20
+        a21 = g20 * r01 + g21 * r11 + g22 * r21
+        a22 = g20 * r02 + g21 * r12 + g22 * r22
+        m00 = r00 * a00 + r10 * a10 + r20 * a20
+        m01 = r00 * a01 + r10 * a11 + r20 * a21
+        m02 = r00 * a02 + r10 * a12 + r20 * a22
+        m10 = r01 * a00 + r11 * a10 + r21 * a20
+        m11 = r01 * a01 + r11 * a11 + r21 * a21
+        m12 = r01 * a02 + r11 * a12 + r21 * a22
+        m20 = r02 * a00 + r12 * a10 + r22 * a20
+        m21 = r02 * a01 + r12 * a11 + r22 * a21
+        m22 = r02 * a02 + r12 * a12 + r22 * a22
+        out: list[float] = []
+        for hx, hy, hz in self._hubs_B:
+            out += (
+                m00 * hx + m01 * hy + m02 * hz,
+                m10 * hx + m11 * hy + m12 * hz,
+                m20 * hx + m21 * hy + m22 * hz,
+            )
+        return tuple(out)
 
     # -- outputs ---------------------------------------------------------------------------
     def _thrusts(self) -> Four:
@@ -331,7 +385,7 @@ class Plant:
             ground.rest(x, c)
         # The air density is per tick; refresh it for the new height right away.
         self._sigma = self._atmo.density_ratio(ground.origin_height_m(x, c) + self._gear_m)
-        self._u = (*self._u[:7], self._sigma)
+        self._u = (*self._u[:7], self._sigma, *self._u[8:])
         self._state = None
 
     def set_payload(

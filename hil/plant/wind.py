@@ -1,6 +1,13 @@
-"""Wind in NED: mean + Dryden-like turbulence + steps and gusts, all in sim time.
+"""Wind in NED: mean + turbulence + steps and gusts, all in sim time.
 
-Theory of operation: the turbulence is three independent first-order Gauss-Markov
+Theory of operation. With ``dryden`` on, the turbulence is the Dryden model of dryden.py:
+velocities and the spatial gradients (rotational gusts) in wind axes, turned into NED by the
+mean wind's heading, advanced exactly on the ``update_period_ns`` grid; the intensities and
+scale lengths follow the vehicle's height (``at(t_ns, h_m)``), re-evaluated when the height
+leaves a 5 % band. ``gradient_N`` is the NED Jacobian d(wind)/d(position) at the last grid
+point (1/s, row = wind component): the plant turns it into per-rotor gust differences.
+
+Otherwise the turbulence is three independent first-order Gauss-Markov
 (Ornstein-Uhlenbeck) processes, one per NED axis, with RMS ``sigma_i`` and correlation
 time ``tau_i = L_i / V`` (Dryden's longitudinal spectrum, Taylor's frozen turbulence blown
 past the vehicle at the mean wind speed V). They are advanced exactly,
@@ -22,12 +29,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hil.plant.dryden import DrydenFilter, low_altitude_intensity
 from hil.plant.params import GustParams, GustShape, WindParams
 
 Vec3 = tuple[float, float, float]
 
 #: Normal deviates drawn per block (3 per grid point).
 _BLOCK = 1024
+#: The Dryden filter is rebuilt when the height leaves a band this wide (log ratio).
+_HEIGHT_BAND = math.log(1.05)
+Mat3Flat = tuple[float, float, float, float, float, float, float, float, float]
+ZERO_GRADIENT: Mat3Flat = (0.0,) * 9  # type: ignore[assignment]
 
 
 @dataclass(frozen=True)
@@ -61,10 +73,58 @@ class WindModel:
             # Start in the stationary distribution so statistics hold from t0.
             n = self._draw()
             self._turb = [s * ni for s, ni in zip(self._sigma, n, strict=True)]
+        self._dryden: DrydenFilter | None = None
+        self._gradient_N: Mat3Flat = ZERO_GRADIENT
+        if params.dryden:
+            self._setup_dryden(v_mean, dt_s)
         self._profiles: dict[int, _Profile] = {}
         self._next_handle = 1
         for gust in params.gusts:
             self.add_gust(gust.peak_N_mps, gust.start_t_ns, gust.duration_ns, gust.shape)
+
+    # -- Dryden ----------------------------------------------------------------------------
+    def _setup_dryden(self, v_mean: float, dt_s: float) -> None:
+        p = self.params
+        m = self._mean
+        self._w20 = math.hypot(m[0], m[1]) if p.dryden_w20_mps is None else p.dryden_w20_mps
+        self._v_conv = v_mean
+        heading = math.atan2(m[1], m[0]) if (m[0] or m[1]) else 0.0
+        self._cos_h, self._sin_h = math.cos(heading), math.sin(heading)
+        self._dryden = DrydenFilter(self._rng, dt_s)
+        self._band = -1_000_000
+        self._set_height(0.0)
+        self._turb = self._dryden_outputs()
+
+    def _set_height(self, h_m: float) -> None:
+        assert self._dryden is not None
+        band = int(math.floor(math.log(max(h_m, 0.1)) / _HEIGHT_BAND))
+        if band == self._band:
+            return
+        self._band = band
+        h_band_m = math.exp((band + 0.5) * _HEIGHT_BAND)
+        self._dryden.set_conditions(
+            low_altitude_intensity(self._w20, h_band_m), self._v_conv, self.params.dryden_span_m
+        )
+
+    def _dryden_outputs(self) -> list[float]:
+        assert self._dryden is not None
+        u, v, w, dv_dx, dw_dx, dw_dy = self._dryden.output()
+        c, s = self._cos_h, self._sin_h
+        if self.params.dryden_gradients:
+            # G_N = R_NW G_W R_NW^T with G_W[v][x] = dv/dx, G_W[w][x] = dw/dx, G_W[w][y] = dw/dy
+            # and R_NW a rotation about down by the heading.
+            gvx = dv_dx
+            self._gradient_N = (
+                -s * c * gvx, -s * s * gvx, 0.0,
+                c * c * gvx, c * s * gvx, 0.0,
+                c * dw_dx - s * dw_dy, s * dw_dx + c * dw_dy, 0.0,
+            )  # fmt: skip
+        return [c * u - s * v, s * u + c * v, w]
+
+    @property
+    def gradient_N(self) -> Mat3Flat:
+        """d(wind_N)/d(p_N) at the last grid point, row-major (1/s); zero without Dryden gradients."""
+        return self._gradient_N
 
     # -- turbulence ------------------------------------------------------------------------
     def _draw(self) -> list[float]:
@@ -76,6 +136,15 @@ class WindModel:
         return n
 
     def _advance(self, t_ns: int) -> None:
+        if self._dryden is not None:
+            stepped = False
+            while self._grid_t_ns + self._period_ns <= t_ns:
+                self._dryden.step()
+                self._grid_t_ns += self._period_ns
+                stepped = True
+            if stepped:
+                self._turb = self._dryden_outputs()
+            return
         if not self._turbulent:
             return
         a0, a1, a2 = self._a
@@ -139,8 +208,11 @@ class WindModel:
         return (wx, wy, wz)
 
     # -- total -----------------------------------------------------------------------------
-    def at(self, t_ns: int) -> Vec3:
-        """Total wind (NED, m/s) at ``t_ns``. Call with non-decreasing times."""
+    def at(self, t_ns: int, h_m: float | None = None) -> Vec3:
+        """Total wind (NED, m/s) at ``t_ns``. Call with non-decreasing times. ``h_m``: the
+        vehicle's height above the ground (m), for the Dryden scale lengths."""
+        if h_m is not None and self._dryden is not None:
+            self._set_height(h_m)
         self._advance(t_ns)
         px, py, pz = self.profiles_N_mps(t_ns) if self._profiles else (0.0, 0.0, 0.0)
         m = self._mean

@@ -30,7 +30,7 @@ def test_named_scenario_keeps_its_file(rig) -> None:
     scen, source = build_scenario(rig, "hover")
     assert source is not None and source.name == "hover.toml"
     assert scen.name == "hover" and scen.scenario.duration_s == 30.0
-    assert len(scen.criteria) == 5
+    assert len(scen.criteria) == 12
 
 
 def test_inline_scenario_gets_a_header(rig) -> None:
@@ -49,7 +49,7 @@ def test_sticks_replace_and_flight_merges(rig) -> None:
     assert source is not None  # still attached as the hover file; the sticks are the test's
     assert [s.action for s in scen.sticks] == ["arm"]
     assert scen.flight == {"failsafe": {"rc_loss_s": 0.3}}
-    assert len(scen.events) == 3  # the gusts stay
+    assert scen.wind is not None and scen.wind.dryden  # the file's turbulence stays
     scen2, _ = build_scenario(rig, scen, flight={"failsafe": {"descend_mps": 1.0}})
     assert scen2.flight == {"failsafe": {"rc_loss_s": 0.3, "descend_mps": 1.0}}
 

@@ -106,3 +106,51 @@ async def test_report_and_timing_of_a_log(fly, tmp_path: Path) -> None:
     assert rep.compute_source == "cpu" and rep.realtime is None
     assert rep.compute_us.p99 == pytest.approx(result.timing["fc_compute_p99_us"])
     assert rep.latency_us.n == rep.samples and rep.compute_us.n > 100
+
+
+async def test_hover_that_never_took_off_fails(tmp_path: Path) -> None:
+    """The hover without its arming gesture: the flight code never arms, the vehicle stands
+    on the ground, and the verdict must be FAIL (the must-have-flown bound fails, and the
+    angles' must-move bound too), not a pass on a vehicle that never flew."""
+    from hil.bench import Mode
+    from hil.rig import load_rig
+    from hil.run import run_flight_async
+    from hil.scenario import load_scenario
+
+    rig = load_rig(None)
+    source = rig.scenario_path("hover")
+    scenario = load_scenario(source)
+    grounded = scenario.model_copy(update={"sticks": [s for s in scenario.sticks if s.action != "arm"]})
+    result = await run_flight_async(rig, grounded, scenario_source=source, mode=Mode.LOCKSTEP, out_dir=tmp_path,
+                                    duration_s=12.0, record=False)
+    assert result.end_reason is EndReason.COMPLETED, explain(result)
+    failed = {c.name for c in result.criteria if not c.passed}
+    assert "it flew: height >= 1 m throughout" in failed, explain(result)
+    assert not result.passed
+
+
+async def test_payload_barely_changes_tracking_on_twin_runs(tmp_path: Path) -> None:
+    """Paper Fig. 8 on twin runs: the payload scenario and the same flight without the
+    payload event, same seed, same turbulence. The tracking RMS over 27-39 s (the payload
+    is aboard from 22 s) differs by less than 15 %."""
+    import numpy as np
+
+    from hil.bench import Mode
+    from hil.rig import load_rig
+    from hil.run import run_flight_async
+    from hil.scenario import load_scenario
+
+    rig = load_rig(None)
+    source = rig.scenario_path("payload")
+    scenario = load_scenario(source)
+    twin = scenario.model_copy(update={"events": [e for e in scenario.events if e.kind != "payload"]})
+    rms = []
+    for sc in (scenario, twin):
+        result = await run_flight_async(rig, sc, scenario_source=source, mode=Mode.LOCKSTEP, out_dir=tmp_path)
+        assert result.end_reason is EndReason.COMPLETED, explain(result)
+        assert result.trace is not None
+        t, err = result.trace.signal("truth.roll_deg - tm.roll_ref_deg")
+        window = (t >= 27.0) & (t <= 39.0)
+        rms.append(float(np.sqrt(np.mean(np.square(err[window])))))
+    change_pct = 100.0 * (rms[0] / rms[1] - 1.0)
+    assert abs(change_pct) <= 15.0, (rms, change_pct)

@@ -107,3 +107,93 @@ def test_difference_signal_is_a_tracking_error() -> None:
     tr.point("tm.roll_ref_deg", 0, 4.5)
     (res,) = evaluate([_c(signal="truth.roll_deg - tm.roll_ref_deg", metric="max_abs", max=0.6)], tr)
     assert res.passed and res.value == pytest.approx(0.5)
+
+
+def _step_trace(level: float, step: float, reached: float) -> Trace:
+    """Holds ``level`` until t = 2 s, then a damped rise to ``reached`` (overshoot ~0.5 m
+    for a 5 m step)."""
+
+    def fn(t: float):
+        if t < 2:
+            return 0.0, level, (1500,) * 4
+        tau = t - 2
+        h = level + (reached - level) * (1 - math.exp(-1.5 * tau) * (math.cos(2 * tau) + 0.75 * math.sin(2 * tau)))
+        return 0.0, h, (1500,) * 4
+
+    return _trace(fn, n=6000)
+
+
+def test_step_metrics_against_the_pre_step_level() -> None:
+    """A 5 m step commanded from a 1.16 m hold that ends 4.8 m higher: measured against
+    6.0 m absolute the overshoot would be wrong by the hold's offset."""
+    tr = _step_trace(1.16, 5.0, 5.96)
+    over, settle_rel, over_final, settle_final, rise_final = evaluate(
+        [
+            _c(signal="truth.h_m", metric="overshoot", step_size=5.0, step_t_s=2, max=1.0),
+            _c(signal="truth.h_m", metric="settling_time", step_size=5.0, step_t_s=2, band_fraction=0.05, max=100),
+            _c(signal="truth.h_m", metric="overshoot", final_window_s=(12, 15), step_t_s=2, max=1.0),
+            _c(signal="truth.h_m", metric="settling_time", final_window_s=(12, 15), step_t_s=2, band_fraction=0.05, max=100),
+            _c(signal="truth.h_m", metric="rise_time", final_window_s=(12, 15), step_t_s=2, max=100),
+        ],
+        tr,
+    )
+    peak = max(tr.signal("truth.h_m")[1])
+    assert over.value == pytest.approx(peak - 6.16)  # pre-step 1.16 + 5
+    assert over_final.value == pytest.approx(peak - 5.96, abs=1e-6)
+    # +-5 % of the step: 0.25 m around pre + 5 = 6.16, or 0.24 m around the level reached
+    # (5.96, 0.2 m lower: the band around pre + 5 is entered on the first overshoot)
+    assert 1.0 < settle_rel.value < 2.0 and 1.5 < settle_final.value < 3.0
+    assert 0.3 < rise_final.value < 1.5
+    # the same criteria on a hold that never stepped: never settles
+    flat = _step_trace(1.16, 5.0, 1.16)
+    (never,) = evaluate([_c(signal="truth.h_m", metric="settling_time", step_size=5.0, step_t_s=2, band_fraction=0.05, max=8)], flat)
+    assert not never.passed and never.value == math.inf
+
+
+def test_std_and_rms_change() -> None:
+    tr = _trace(lambda t: (2.0 * math.sin(2 * math.pi * t) * (1.1 if t >= 5 else 1.0) + 3.0, 0.0, (1500,) * 4))
+    std, change = evaluate(
+        [
+            _c(signal="truth.roll_deg", metric="std", window_s=(1, 4), max=10),
+            _c(signal="truth.roll_deg - truth.h_m", metric="rms_change_pct", window_s=(5, 9), baseline_window_s=(1, 4), max=15),
+        ],
+        tr,
+    )
+    assert std.value == pytest.approx(2 / math.sqrt(2), rel=1e-3)  # the offset does not count
+    rms_before = math.sqrt(9 + 2.0)
+    rms_after = math.sqrt(9 + 2.0 * 1.21)
+    assert change.value == pytest.approx(100 * (rms_after / rms_before - 1), rel=1e-2)
+    assert change.passed
+
+
+def test_phase_lag_of_a_delayed_sine() -> None:
+    """Truth lags the (50 Hz, irregular) reference by 25 ms at 2 Hz: 18 deg."""
+    tr = _trace(lambda t: (10 * math.sin(2 * math.pi * 2.0 * (t - 0.025)), 0.0, (1500,) * 4))
+    for k in range(0, 500):
+        t = k * 0.02
+        tr.point("tm.roll_ref_deg", int(round(t * 1e9)), 10 * math.sin(2 * math.pi * 2.0 * t))
+    (lag,) = evaluate(
+        [_c(signal="truth.roll_deg", metric="phase_lag_deg", reference="tm.roll_ref_deg", freq_hz=2.0, window_s=(1, 9), max=20)],
+        tr,
+    )
+    assert lag.value == pytest.approx(18.0, abs=0.2)
+
+
+def test_new_metrics_need_their_parameters() -> None:
+    with pytest.raises(ValueError, match="reference and freq_hz"):
+        _c(signal="truth.roll_deg", metric="phase_lag_deg", max=1)
+    with pytest.raises(ValueError, match="baseline_window_s"):
+        _c(signal="truth.roll_deg", metric="rms_change_pct", window_s=(1, 2), max=1)
+    with pytest.raises(ValueError, match="one of target"):
+        _c(signal="truth.h_m", metric="overshoot", step_t_s=1, target=5, step_size=5, max=1)
+
+
+def test_estimate_minus_truth_is_taken_at_the_estimate_instants() -> None:
+    """``tm.x - truth.y`` (irregular on the left) is evaluated at the telemetry samples."""
+    tr = _trace(lambda t: (0.0, t, (1500,) * 4), n=400)
+    for k in range(0, 50):
+        t_ns = k * 20_000_000
+        tr.point("tm.alt_est_m", t_ns, t_ns / 1e9 + 0.1)
+    t, err = tr.signal("tm.alt_est_m - truth.h_m")
+    assert len(t) == 50
+    np.testing.assert_allclose(err, 0.1, atol=1e-9)

@@ -26,7 +26,7 @@ BASE = '[campaign]\nname = "t"\nscenarios = ["hover-2s.toml"]\n'
 def test_the_example_campaign_loads() -> None:
     c = load_campaign(ROOT / "rigs" / "campaigns" / "hover-gains.toml")
     assert c.seeds == (1, 2, 3)
-    assert c.flight_sweep == (("attitude.tau_ff_s", (0.025, 0.035)),)
+    assert c.flight_sweep == (("attitude.tau_ff_s", (0.005, 0.020)),)
     assert [s for s, _ in c.scenarios] == ["hover"]
     assert len(c.cases(Path("/nonexistent"))) == 6
 

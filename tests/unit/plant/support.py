@@ -16,6 +16,8 @@ NO_DRAG = AeroParams(
     linear_drag_B_N_per_mps=(0.0, 0.0, 0.0),
     quadratic_drag_B_N_per_mps2=(0.0, 0.0, 0.0),
     rotor_drag_N_per_mps_per_radps=0.0,
+    rotor_drag_vertical_N_per_mps_per_radps=0.0,
+    flapping_moment_Nm_per_mps_per_radps=0.0,
     angular_drag_B_Nm_per_radps=(0.0, 0.0, 0.0),
 )
 #: A battery that never sags (zero resistance): omega_max only follows the (slow) charge.
