@@ -394,7 +394,10 @@ def fidelity(
     seeds: Annotated[int, typer.Option(help="Fly seeds 1..N.")] = 5,
     docs: Annotated[Path, typer.Option(help="Directory for fidelity.md and its plots.")] = Path("docs"),
 ) -> None:
-    """Fly the paper's experiments over several seeds; write the fidelity table and plots."""
+    """Fly the paper's experiments over several seeds; write the fidelity table and plots.
+
+    Exit status: 0 every row of the table passes; 1 a row fails; 2 bad input.
+    """
     from hil.fidelity import main as fidelity_main
 
     ok = fidelity_main(list(range(1, seeds + 1)), docs, progress=lambda msg: console.print(msg))

@@ -14,6 +14,7 @@ from hil.scenario import Scenario
 class _Port:
     def __init__(self, name: str) -> None:
         self.path = f"/dev/fake-{name}"
+        self.client_path = self.path  # what the flight code opens (hil.transport.base.Port)
 
 
 def _write(tmp_path: Path, flight: dict) -> dict:

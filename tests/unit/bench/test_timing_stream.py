@@ -49,8 +49,11 @@ def _traced_bytes(ticks: int) -> int:
 def test_memory_of_a_10_minute_flight_is_that_of_a_10_s_one() -> None:
     short = _traced_bytes(10 * 400)  # 10 s
     long = _traced_bytes(600 * 400)  # 10 minutes: lists of every sample took ~76 MB here
-    assert long - short < 1_000_000, (short, long)
-    assert long < 2_000_000
+    # streamed, except the flight code's CPU per sample, kept whole by design (8 bytes a
+    # sample, so the summary and `hil timing` compute from the same values): 1.9 MB
+    per_sample_cpu = 8 * (600 - 10) * 400
+    assert long - short < 1_000_000 + per_sample_cpu, (short, long)
+    assert long < 2_000_000 + per_sample_cpu
 
 
 @pytest.mark.parametrize("q", [1, 50, 90, 99, 99.9])
