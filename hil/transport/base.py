@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import enum
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -148,3 +149,36 @@ class Port:
         else:
             self.stats.line_changes += 1
         self.on_line(settings)
+
+
+class BufferedWrites:
+    """Bounded non-blocking writes for the transports with a file descriptor (pty, serial):
+    what the kernel will not take now waits in ``_pending``, drained by the loop's writer
+    callback; beyond ``buffer_limit`` bytes are dropped and counted (like a UART overrun),
+    never hidden. The transport provides ``_writer_fd`` and ``_on_writable``."""
+
+    _pending: bytearray
+    _writer_registered: bool
+    _loop: asyncio.AbstractEventLoop | None
+    buffer_limit: int
+    stats: PortStats
+
+    def _writer_fd(self) -> int | None:
+        raise NotImplementedError
+
+    def _on_writable(self) -> None:
+        raise NotImplementedError
+
+    def _buffer(self, data: bytes) -> int:
+        room = self.buffer_limit - len(self._pending)
+        accepted = data[: max(room, 0)]
+        dropped = len(data) - len(accepted)
+        if dropped:
+            self.stats.overflow_bytes += dropped
+            self.stats.overflow_events += 1
+        self._pending += accepted
+        fd = self._writer_fd()
+        if self._pending and not self._writer_registered and self._loop is not None and fd is not None:
+            self._loop.add_writer(fd, self._on_writable)
+            self._writer_registered = True
+        return len(accepted)

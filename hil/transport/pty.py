@@ -29,7 +29,7 @@ import termios
 import tty
 from pathlib import Path
 
-from hil.transport.base import Direction, LineSettings, Port
+from hil.transport.base import BufferedWrites, Direction, LineSettings, Port
 
 EXTPROC = 0o200000  # not exported by the termios module
 TIOCPKT_DATA = 0
@@ -68,7 +68,7 @@ def _read_line_settings(fd: int, opened: bool) -> LineSettings:
     return LineSettings(baud, size, parity, stopbits, opened)
 
 
-class PtyPort(Port):
+class PtyPort(BufferedWrites, Port):
     """A pty whose slave is published as ``<dev_dir>/<name>``."""
 
     def __init__(self, name: str, dev_dir: str | os.PathLike[str], *, buffer_limit: int = 65536) -> None:
@@ -166,18 +166,8 @@ class PtyPort(Port):
             self._buffer(data[n:])
         return len(data)
 
-    def _buffer(self, data: bytes) -> int:
-        room = self.buffer_limit - len(self._pending)
-        accepted = data[: max(room, 0)]
-        dropped = len(data) - len(accepted)
-        if dropped:
-            self.stats.overflow_bytes += dropped
-            self.stats.overflow_events += 1
-        self._pending += accepted
-        if self._pending and not self._writer_registered and self._loop is not None:
-            self._loop.add_writer(self._master, self._on_writable)
-            self._writer_registered = True
-        return len(accepted)
+    def _writer_fd(self) -> int | None:
+        return self._master
 
     def _on_writable(self) -> None:
         try:

@@ -38,7 +38,7 @@ from typing import Any
 import serial
 
 from hil.config import ConfigError
-from hil.transport.base import LineSettings, Port
+from hil.transport.base import BufferedWrites, LineSettings, Port
 
 #: linux/serial.h: struct serial_struct and its flag for low-latency (no tty flip buffering)
 TIOCGSERIAL = 0x541E
@@ -167,7 +167,7 @@ def open_serial(port: str, target: str, framing: Framing) -> serial.SerialBase:
     return ser
 
 
-class SerialPort(Port):
+class SerialPort(BufferedWrites, Port):
     """A bench port on a real serial line (see module docstring).
 
     ``target`` is the device path or URL; ``notes`` collects what the user should know
@@ -295,18 +295,8 @@ class SerialPort(Port):
         self.stats.bytes_tx += n
         return n
 
-    def _buffer(self, data: bytes) -> int:
-        room = self.buffer_limit - len(self._pending)
-        accepted = data[: max(room, 0)]
-        dropped = len(data) - len(accepted)
-        if dropped:
-            self.stats.overflow_bytes += dropped
-            self.stats.overflow_events += 1
-        self._pending += accepted
-        if self._pending and not self._writer_registered and self._loop is not None and self._fd is not None:
-            self._loop.add_writer(self._fd, self._on_writable)
-            self._writer_registered = True
-        return len(accepted)
+    def _writer_fd(self) -> int | None:
+        return self._fd  # None for rfc2217: its writes are short blocking sends, never buffered here
 
     def _on_writable(self) -> None:
         n = self._write_now(self._pending)
