@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 from hil import clock
 from hil.devices import DeviceSet, LatencySample
-from hil.timing import StreamingStats
+from hil.timing import LATE_US, StreamingStats
 from hil.vtime.scheduler import ShimLost, VirtualClock
 
 
@@ -64,8 +64,8 @@ class BootError(Exception):
     """The flight code did not configure a device in time (message names the device)."""
 
 
-#: realtime: a tick that starts this late counts as late
-LATE_NS = 1_000_000
+#: realtime: a tick that starts this late counts as late (one constant with hil timing)
+LATE_NS = round(LATE_US * 1000)
 
 
 @dataclass

@@ -277,7 +277,9 @@ class Bench:
         """On virtual time the bench ticks only while the test awaits it: the test's code between
         two waits takes no sim time, however long it runs, so what it sees is deterministic. On
         the host clock (realtime, the fallback) the flight code would not wait: no gate."""
-        if self.loop is None or self.loop.stats.clock.value != "virtual":
+        from hil.bench import Clock
+
+        if self.loop is None or self.loop.stats.clock is not Clock.VIRTUAL:
             return
         while not self._test_waits():
             self._gate_open.clear()
@@ -366,7 +368,9 @@ class Bench:
         late_s = (now - self._stall_due_ns) / S
         ticking = self.loop is not None and self.loop.stats.wall_end_ns == 0  # not the end-of-run work
         # on virtual time the flight code's clock stops with the bench: a stall changes nothing
-        host_clock = self.loop is not None and self.loop.stats.clock.value != "virtual"
+        from hil.bench import Clock
+
+        host_clock = self.loop is not None and self.loop.stats.clock is not Clock.VIRTUAL
         if late_s > STALL_WARN_S and ticking and host_clock:
             self.stalls.append((self.t_s, late_s))
         if ticking:

@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from hil.devices import LatencySample
 
 NOMINAL_PERIOD_US = 2500.0
-#: a realtime tick that starts this late counts as late (hil.bench.LATE_NS)
+#: a realtime tick that starts this late counts as late (the run's late_ticks and hil timing)
 LATE_US = 1000.0
 #: realtime is not held when any tick starts later than this: the flight code then saw a
 #: gap of ten samples (its IMU watchdog is 100 ms; this machine's worst scheduling gaps are
