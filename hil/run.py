@@ -157,9 +157,8 @@ def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None, cp
     if trace is not None:
         with contextlib.suppress(KeyError):
             telemetry_compute = trace.signal("tm.compute_last_us")[1]
-    # one rule with `hil timing` (hil/timing.py), on the same per-sample values: the log
-    # keeps them as float32 us (/hil/timing/tick), so they are rounded the same way here
-    fc_cpu_us = (np.frombuffer(st.fc_cpu_ns, dtype=np.int64) / 1e3).astype(np.float32).astype(float) if virtual else None
+    # one rule with `hil timing` (hil/timing.py), on the same per-sample values
+    fc_cpu_us = np.frombuffer(st.fc_cpu_ns, dtype=np.int64) / 1e3 if virtual else None
     out |= _percentiles("fc_compute", compute_samples_us(fc_cpu_us, telemetry_compute, cpu_scale))
     if st.lateness_ns:
         out |= _percentiles("lateness", st.lateness_ns, 1e-3)

@@ -8,8 +8,8 @@ message name), so its plot and raw-message panels keep working.
 The JSON schema of a topic (``topics.py``) stays the one description of its fields: this
 module turns it into a proto2 message (``proto2`` so that every scalar has presence: an item
 a message does not carry is left out, as in JSON; no proto3 ``optional`` synthetic oneofs).
-Mapping: ``number`` -> ``double`` (``float`` where the topic says float32), ``integer`` ->
-``sint64`` (``uint64`` with ``minimum >= 0``), ``boolean`` -> ``bool``, ``string`` ->
+Mapping: ``number`` -> ``double`` (``float`` where the topic says float32, unless the field
+says ``"format": "double"``), ``integer`` -> ``sint64`` (``uint64`` with ``minimum >= 0``), ``boolean`` -> ``bool``, ``string`` ->
 ``string`` (``bytes`` with ``contentEncoding: base64``), fixed arrays -> packed ``repeated``,
 objects with properties -> a nested message. Field numbers follow the property order.
 Free-form objects have no protobuf form: such topics stay JSON.
@@ -43,8 +43,8 @@ def _add_message(msg: Any, schema: Mapping[str, Any], full_name: str, float32: b
             item = prop.get("items", {})
         kind = item.get("type")
         field = msg.field.add(name=name, number=number, label=label)
-        if kind == "number":
-            field.type = F.TYPE_FLOAT if float32 else F.TYPE_DOUBLE
+        if kind == "number":  # "format": "double" keeps a field exact in a float32 topic
+            field.type = F.TYPE_FLOAT if float32 and item.get("format") != "double" else F.TYPE_DOUBLE
         elif kind == "integer":
             field.type = F.TYPE_UINT64 if item.get("minimum", -1) >= 0 else F.TYPE_SINT64
         elif kind == "boolean":

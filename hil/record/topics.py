@@ -247,8 +247,10 @@ TICK_TIMING = _message(
     latency_us=_num("IMU emit -> ESC command, us on the flight code's clock (sim time with virtual "
                     "time, host time otherwise); -1 if missed"),
     host_latency_us=_num("IMU written -> ESC command read, us of host time (-1 if missed)"),
-    fc_cpu_us=_num("virtual time: the flight code's CPU time for this sample, us of this host, "
-                   "unscaled (-1 if not measured)"),
+    # double even in this float32 topic: the run summary's compute figures come from the same
+    # values, and `hil timing` must reproduce them exactly
+    fc_cpu_us={**_num("virtual time: the flight code's CPU time for this sample, us of this host, "
+                      "unscaled (-1 if not measured)"), "format": "double"},
     lateness_us=_num("realtime: how late the tick that emitted the sample started against its wall "
                      "deadline, us of host time (-1 in lockstep)"),
     miss=_bool("no command before the deadline"))
