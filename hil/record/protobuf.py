@@ -9,9 +9,9 @@ The JSON schema of a topic (``topics.py``) stays the one description of its fiel
 module turns it into a proto2 message (``proto2`` so that every scalar has presence: an item
 a message does not carry is left out, as in JSON; no proto3 ``optional`` synthetic oneofs).
 Mapping: ``number`` -> ``double`` (``float`` where the topic says float32, unless the field
-says ``"format": "double"``), ``integer`` -> ``sint64`` (``uint64`` with ``minimum >= 0``), ``boolean`` -> ``bool``, ``string`` ->
-``string`` (``bytes`` with ``contentEncoding: base64``), fixed arrays -> packed ``repeated``,
-objects with properties -> a nested message. Field numbers follow the property order.
+says ``"format": "double"``), ``integer`` -> ``sint64`` (``uint64`` with ``minimum >= 0``),
+``boolean`` -> ``bool``, ``string`` -> ``string`` (``bytes`` with ``contentEncoding: base64``),
+fixed arrays -> packed ``repeated``, objects with properties -> a nested message. Field numbers follow the property order.
 Free-form objects have no protobuf form: such topics stay JSON.
 
 ``google.protobuf`` is imported only when a protobuf topic is encoded or decoded (start-up
