@@ -4,9 +4,12 @@ A :class:`~hil.record.writer.Recorder` in a thread shares the bench's GIL: while
 writer encodes and compresses, the event loop waits for the GIL when the flight code's ADC
 request arrives, and that wait lands in the flight code's response time (measured on the
 bench: ~360 -> ~650 us median). Here the same Recorder runs in a forked child; the bench
-gathers a tick's messages into a list, pickles it (tens of microseconds) and hands the
-bytes to a small sender thread that only does blocking ``os.write`` calls (which release
-the GIL). Deferred payloads (callables) are pickled as they are and built in the child.
+gathers a tick's messages into a list, pickles it (tens of microseconds) and writes the
+bytes to the child's pipe without blocking (enlarged to ``PIPE_BYTES``). No thread: a sender
+thread cost a GIL hand-over per tick, paid on the tick path and in the flight code's response
+time. When the child falls behind and the pipe is full, the rest waits in a local buffer that
+the next tick's write sends first; past ``backlog_max`` bytes the write blocks (back-pressure,
+nothing dropped). Deferred payloads (callables) are pickled as they are and built in the child.
 
 Crash safety is the Recorder's: the child gets SIGKILL with the bench (PR_SET_PDEATHSIG), so
 a killed run leaves a torn ``.part`` that ``hil recover`` salvages; Ctrl-C in a terminal is
@@ -19,10 +22,9 @@ import ctypes
 import dataclasses
 import os
 import pickle
-import queue
+import fcntl
 import signal
 import struct
-import threading
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
@@ -34,6 +36,10 @@ _LEN = struct.Struct("<I")
 _BATCH = 0
 _CLOSE = 1
 PR_SET_PDEATHSIG = 1
+F_SETPIPE_SZ = 1031
+#: the command pipe's capacity: about a second of recording, so a busy child does not stall
+#: the tick path (the kernel caps it at /proc/sys/fs/pipe-max-size, 1 MiB by default)
+PIPE_BYTES = 1 << 20
 _KNOWN_WIRE: set[tuple[str, str]] = set()
 
 
@@ -103,7 +109,7 @@ def _child(cmd_fd: int, result_fd: int, path: Path, kwargs: dict[str, Any]) -> N
 
 
 class ProcessBatch:
-    """A tick's messages; ``flush()`` pickles them and queues the bytes for the sender."""
+    """A tick's messages; ``flush()`` pickles them and writes the bytes to the child."""
 
     __slots__ = ("_items", "_owner")
 
@@ -144,6 +150,7 @@ class ProcessRecorder:
         attachments: Iterable[tuple[str, str, bytes]] = (),
         chunk_size: int = 65536,
         queue_max: int = 200_000,
+        backlog_max: int = 64 << 20,
     ) -> None:
         from hil.record.topics import TOPICS
 
@@ -159,8 +166,11 @@ class ProcessRecorder:
         self._pid: int | None = None
         self._cmd_fd = -1
         self._result_fd = -1
-        self._outbox: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
-        self._sender: threading.Thread | None = None
+        #: bytes the full pipe could not take yet (sent first by the next write)
+        self._backlog = bytearray()
+        self._backlog_batches = 0  #: batches with bytes in the backlog
+        self.backlog_max = backlog_max
+        self.backlog_peak = 0  #: the largest the backlog got, bytes
         self._stats: RecordStats | None = None
         self.dropped = 0  #: batches that could not be handed to the child (it died)
         self._single = ProcessBatch(self)
@@ -184,8 +194,11 @@ class ProcessRecorder:
         if kind != "started":
             self._reap()
             raise OSError(f"recorder process could not start {self.path}: {detail}")
-        self._sender = threading.Thread(target=self._send_loop, name="hil-record-sender", daemon=True)
-        self._sender.start()
+        try:
+            fcntl.fcntl(cmd_w, F_SETPIPE_SZ, PIPE_BYTES)
+        except OSError:
+            pass  # a lower pipe-max-size: the default 64 KiB, and the backlog takes the rest
+        os.set_blocking(cmd_w, False)
 
     def _result(self) -> tuple[str, Any]:
         data = bytearray()
@@ -222,17 +235,65 @@ class ProcessRecorder:
 
     def _send(self, kind: int, payload: Any) -> None:
         body = pickle.dumps((kind, payload), protocol=pickle.HIGHEST_PROTOCOL)
-        self._outbox.put(_LEN.pack(len(body)) + body)
-
-    def _send_loop(self) -> None:
-        while True:
-            data = self._outbox.get()
-            if data is None:
-                return
+        data = _LEN.pack(len(body)) + body
+        backlog = self._backlog
+        if self._cmd_fd < 0:
+            self.dropped += 1
+            return
+        if backlog:
+            backlog += data
+            self._backlog_batches += 1
+            self._write_backlog()
+        else:
             try:
-                _write_all(self._cmd_fd, data)
+                n = os.write(self._cmd_fd, data)
+            except BlockingIOError:
+                n = 0
             except OSError:  # the child died: count what could not be handed over
-                self.dropped += 1
+                self._child_gone()
+                return
+            if n < len(data):
+                backlog += memoryview(data)[n:]
+                self._backlog_batches = 1
+        if len(backlog) > self.backlog_peak:
+            self.backlog_peak = len(backlog)
+        if len(backlog) > self.backlog_max:
+            self._drain_blocking()  # the child is far behind: wait for it rather than grow
+
+    def _write_backlog(self) -> None:
+        backlog = self._backlog
+        try:
+            n = os.write(self._cmd_fd, backlog)
+        except BlockingIOError:
+            return
+        except OSError:
+            self._child_gone(in_backlog=True)
+            return
+        del backlog[:n]
+        if not backlog:
+            self._backlog_batches = 0
+
+    def _drain_blocking(self) -> None:
+        """Hand the whole backlog over, waiting for the child to read it."""
+        if self._cmd_fd < 0 or not self._backlog:
+            return
+        os.set_blocking(self._cmd_fd, True)
+        try:
+            _write_all(self._cmd_fd, bytes(self._backlog))
+            self._backlog.clear()
+            self._backlog_batches = 0
+        except OSError:
+            self._child_gone(in_backlog=True)
+        finally:
+            if self._cmd_fd >= 0:
+                os.set_blocking(self._cmd_fd, False)
+
+    def _child_gone(self, *, in_backlog: bool = False) -> None:
+        """The pipe broke (the child died): the pending batches (and this one, unless it is
+        among them) are lost, and counted."""
+        self.dropped += self._backlog_batches + (0 if in_backlog else 1)
+        self._backlog.clear()
+        self._backlog_batches = 0
 
     # -- end --------------------------------------------------------------------------------------
     def close(self, final_metadata: dict[str, str] | None = None) -> RecordStats:
@@ -242,9 +303,7 @@ class ProcessRecorder:
         if self._pid is None:
             raise RuntimeError("ProcessRecorder.close() before start()")
         self._send(_CLOSE, {k: str(v) for k, v in (final_metadata or {}).items()})
-        self._outbox.put(None)
-        if self._sender is not None:
-            self._sender.join()
+        self._drain_blocking()
         os.close(self._cmd_fd)
         kind, detail = self._result()
         os.close(self._result_fd)

@@ -66,3 +66,62 @@ def test_a_file_that_cannot_be_created_fails_start(tmp_path: Path) -> None:
     rec = ProcessRecorder(existing, run_start_unix_ns=0, metadata={})
     with pytest.raises(OSError, match="could not start"):
         rec.start()
+
+
+def test_a_stalled_child_backs_up_locally_then_everything_arrives(tmp_path: Path) -> None:
+    """The tick path never waits on a busy child: what the full pipe cannot take waits in the
+    backlog (sent first by the next write), and at close every batch reaches the file."""
+    import os
+    import signal
+
+    path = tmp_path / "stall.mcap"
+    rec = ProcessRecorder(path, run_start_unix_ns=0, metadata={})
+    rec.start()
+    assert rec._pid is not None
+    os.kill(rec._pid, signal.SIGSTOP)  # the child reads nothing until SIGCONT
+    try:
+        batch = rec.batch()
+        blob = bytes(range(256)) * 16  # 4 KiB a batch: 2 MiB is beyond any pipe's capacity
+        for k in range(512):
+            batch.log_wire("imu", "tx", k * 2_500_000, 0, blob)
+            batch.flush()
+        assert rec.backlog_peak > 0
+    finally:
+        os.kill(rec._pid, signal.SIGCONT)
+    stats = rec.close()
+    assert stats.dropped == 0 and rec.dropped == 0
+    assert read_wire(path, "imu", "tx") == blob * 512
+
+
+def test_a_backlog_past_its_bound_blocks_instead_of_growing(tmp_path: Path) -> None:
+    path = tmp_path / "bound.mcap"
+    rec = ProcessRecorder(path, run_start_unix_ns=0, metadata={}, backlog_max=256 << 10)
+    rec.start()
+    batch = rec.batch()
+    blob = b"\xa5" * 8192
+    for k in range(400):  # 3.2 MB through a 256 KiB bound
+        batch.log_wire("esc", "rx", k * 2_500_000, 0, blob)
+        batch.flush()
+        assert len(rec._backlog) <= rec.backlog_max
+    stats = rec.close()
+    assert stats.dropped == 0
+    assert read_wire(path, "esc", "rx") == blob * 400
+
+
+def test_a_dead_child_counts_what_it_lost(tmp_path: Path) -> None:
+    import os
+    import signal
+
+    rec = ProcessRecorder(tmp_path / "dead.mcap", run_start_unix_ns=0, metadata={})
+    rec.start()
+    assert rec._pid is not None
+    os.kill(rec._pid, signal.SIGKILL)
+    os.waitpid(rec._pid, 0)
+    rec._pid = None  # reaped here
+    batch = rec.batch()
+    for k in range(3):
+        batch.log("/hil/events", k, {"t_ns": k, "kind": "test", "name": "x", "detail": {}}, 0)
+        batch.flush()
+    assert rec.dropped == 3
+    os.close(rec._cmd_fd)
+    os.close(rec._result_fd)

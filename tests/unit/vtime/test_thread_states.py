@@ -6,32 +6,36 @@ import os
 import subprocess
 import sys
 import threading
+import time
 
 from hil.vtime.control import ThreadStates, asleep_in_kernel
 
 
-def test_a_thread_asleep_on_a_lock_reads_asleep_and_a_gone_process_as_nothing_to_wait_for() -> None:
+def _in_syscall(pid: int, tid: int, number: int) -> bool:
+    """The thread is blocked in system call ``number`` (/proc/<pid>/task/<tid>/syscall)."""
+    with open(f"/proc/{pid}/task/{tid}/syscall", "rb") as f:
+        return f.read().split(b" ", 1)[0] == str(number).encode()
+
+
+def test_a_blocked_thread_reads_asleep_and_a_gone_process_as_nothing_to_wait_for() -> None:
     states = ThreadStates()
-    release = threading.Event()
-    started = threading.Event()
-
-    def sleeper() -> None:
-        started.set()
-        release.wait()
-
-    t = threading.Thread(target=sleeper)
+    r, w = os.pipe()
+    t = threading.Thread(target=os.read, args=(r, 1))
     t.start()
-    started.wait()
     pid, tid = os.getpid(), t.native_id
     assert tid is not None
-    # until the kernel has it asleep it may read running; it gets there without our help
-    while not states.asleep(pid, tid):
-        os.sched_yield()
-    assert states.asleep(pid, tid) and asleep_in_kernel(pid, tid)  # the file is re-read, same answer
+    # Wait until it is blocked in read(2) itself (syscall 0 on x86-64), not merely asleep: on
+    # a loaded machine a new thread can sleep waiting for the GIL on its way there, and wake.
+    while not _in_syscall(pid, tid, 0):
+        time.sleep(0.001)  # releases the GIL: the thread gets to its read
+    assert states.asleep(pid, tid) and asleep_in_kernel(pid, tid)
+    assert states.asleep(pid, tid)  # the open file is re-read: same answer
     me = threading.get_native_id()
     assert not states.asleep(pid, me)  # this thread is running while it asks
-    release.set()
+    os.write(w, b"x")
     t.join()
+    os.close(r)
+    os.close(w)
     assert states.asleep(pid, tid)  # gone: nothing to wait for (its file is closed)
 
     child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
