@@ -562,7 +562,8 @@ def summarize(results: list[dict[str, Any]], *, campaign: Campaign, cases: int, 
         "campaign": campaign.name, "file": str(campaign.path), "dir": str(directory), "executor": executor,
         "cases": cases, "done": len(results),
         **{k: sum(1 for r in results if outcome(r) == k) for k in ("passed", "failed", "stopped")},
-        "cancelled": cancelled, "interrupted": interrupted, "wall_s": wall_s, "by_scenario": by_scenario,
+        "cancelled": cancelled, "interrupted": interrupted, "wall_s": wall_s,
+        "flights_per_hour": len(results) / wall_s * 3600 if wall_s > 0 else None, "by_scenario": by_scenario,
         "failed_cases": [r["case_id"] for r in results if outcome(r) == "failed"],
     }
 
@@ -588,7 +589,9 @@ def print_summary(console: Console, summary: dict[str, Any]) -> None:
     tail = " (interrupted)" if summary["interrupted"] else ""
     console.print(f"{summary['passed']} passed, {summary['failed']} failed, {summary['stopped']} stopped, "
                   f"{summary['cancelled']} not run of "
-                  f"{summary['cases']} in {summary['wall_s']:.1f} s{tail}", highlight=False)
+                  f"{summary['cases']} in {summary['wall_s']:.1f} s{tail}"
+                  + (f" ({summary['flights_per_hour']:.0f} flights/h)" if summary.get("flights_per_hour") else ""),
+                  highlight=False)
     console.print(f"results: {Path(summary['dir']) / 'results.jsonl'}", highlight=False, soft_wrap=True)
 
 

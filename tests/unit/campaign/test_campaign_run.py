@@ -54,6 +54,7 @@ def _check_two_seed_run(run: CampaignRun) -> list[dict[str, Any]]:
     assert summary == json.loads(json.dumps(run.summary))
     assert (summary["cases"], summary["done"], summary["passed"], summary["failed"]) == (2, 2, 2, 0)
     assert not summary["interrupted"] and summary["cancelled"] == 0
+    assert summary["flights_per_hour"] == pytest.approx(2 / summary["wall_s"] * 3600)
     scen = summary["by_scenario"]["hover-2s"]
     assert (scen["cases"], scen["passed"], scen["end_reasons"]) == (2, 2, {"completed": 2})
     assert set(scen["worst"]) == {"stays on the ground", "level"}
