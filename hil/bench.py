@@ -82,6 +82,7 @@ class TickStats:
     samples: int = 0  #: ticks on which an IMU sample was emitted
     barrier_misses: int = 0  #: lockstep: no ESC command for an emitted sample (before the next tick)
     late_ticks: int = 0  #: realtime: tick started more than 1 ms late
+    no_command: int = 0  #: realtime: samples that got no ESC command before the next sample
     # streamed (hil.timing.StreamingStats: percentiles in bounded memory, not every sample)
     latencies_ns: StreamingStats = field(default_factory=StreamingStats)  #: IMU emit -> ESC command (wall; sim in VIRTUAL)
     lateness_ns: StreamingStats = field(default_factory=StreamingStats)  #: realtime pacer lateness
@@ -383,6 +384,7 @@ class TickLoop:
                     self._barrier = None
                 elif emitted:
                     if self._rt_emit is not None:  # the previous sample got no command
+                        stats.no_command += 1
                         t_prev, emit_prev, late_prev = self._rt_emit
                         devices.note_latency(LatencySample(t_prev, emit_prev, None, lateness_ns=late_prev))
                     self._rt_emit = (t_ns, t_emit, lateness)

@@ -1,0 +1,79 @@
+"""The realtime tick: its bookkeeping waits for the sample's ESC command (up to a share of the
+tick), so the event loop is free to serve the flight code while it computes."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from typing import Any
+
+import pytest
+
+import hil.bench
+from hil.bench import RT_ANSWER_SHARE, Mode, TickLoop
+
+TICK_NS = 2_500_000
+
+
+class _Devices:
+    """The DeviceSet calls the tick loop makes, with a fake flight code answering each sample
+    ``answer_s`` after it is emitted (None: never)."""
+
+    def __init__(self, answer_s: float | None) -> None:
+        self.answer_s = answer_s
+        self.on_esc_command: Any = None
+        self.answered: set[int] = set()
+        self.latencies: list[Any] = []
+        self.k = -1
+
+    def emit_rc_early(self, t_ns: int) -> None: ...
+    def actuate_and_step(self, t_ns: int) -> None: ...
+    def latch_analog(self, t_ns: int) -> None: ...
+    def finish_tick(self, t_ns: int) -> None: ...
+
+    def note_latency(self, sample: Any) -> None:
+        self.latencies.append(sample)
+
+    def emit_imu(self, t_ns: int) -> tuple[bool, bool]:
+        k = t_ns // TICK_NS
+        if self.answer_s is not None:
+            loop = asyncio.get_running_loop()
+            loop.call_later(self.answer_s, self._answer, k, t_ns)
+        return True, True
+
+    def _answer(self, k: int, t_ns: int) -> None:
+        self.answered.add(k)
+        self.on_esc_command(time.monotonic_ns(), t_ns)
+
+
+def _loop(devices: _Devices, ticks: int, seen: list[tuple[int, bool]]) -> TickLoop:
+    return TickLoop(
+        devices,  # type: ignore[arg-type]
+        mode=Mode.REALTIME, tick_ns=TICK_NS, duration_ns=(ticks - 1) * TICK_NS, barrier_timeout_s=0.5,
+        boot_timeout_s=1.0, after_tick=lambda k, t: seen.append((k, k in devices.answered)),
+    )
+
+
+def test_bookkeeping_follows_the_samples_command(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The wait is measured from the tick's wall deadline: on a loaded machine a late tick has
+    # less of it left, so the test lets it wait up to 1 s (the answer comes 0.3 ms after emit).
+    monkeypatch.setattr(hil.bench, "RT_ANSWER_SHARE", 400.0)
+    devices = _Devices(answer_s=0.0003)
+    seen: list[tuple[int, bool]] = []
+    loop = _loop(devices, 40, seen)
+    asyncio.run(loop.run())
+    assert len(seen) == 40
+    # every tick's bookkeeping ran after its own sample's command had arrived
+    assert all(answered for _k, answered in seen)
+    assert loop.stats.no_command == 0 and len(loop.stats.latencies_ns) == 40
+
+
+def test_no_command_does_not_hold_the_tick_and_is_counted() -> None:
+    devices = _Devices(answer_s=None)
+    seen: list[tuple[int, bool]] = []
+    loop = _loop(devices, 20, seen)
+    asyncio.run(loop.run())
+    assert [k for k, _ in seen] == list(range(20))  # every tick still ran its bookkeeping
+    assert loop.stats.no_command == 19  # each sample but the last was followed by the next
+    assert all(s.t_arrival_host_ns is None for s in devices.latencies)
+    assert 0 < RT_ANSWER_SHARE < 1
