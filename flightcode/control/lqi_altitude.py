@@ -7,7 +7,7 @@ gain k = dF/dd = 2 F_max d_h (N per unit throttle), first-order thrust lag T1:
 
 with the input u = d - d_h (throttle deviation; it absorbs m g, Eq. 4.3). LQI augments the
 integral x_r' = r - z (the sign of the paper's matrix in Eq. 4.6) and solves the continuous
-Riccati equation with ``control.lqr``: u = -F1 x - F2 x_r. The defaults Q = diag(0, 0, 0,
+Riccati equation (``flightcode.control.design.lqr``, python-control's ``lqr`` computation): u = -F1 x - F2 x_r. The defaults Q = diag(0, 0, 0,
 8.25e-3), R = 1 give F1 = [0.1415, 0.1103, 0.00796], F2 = -0.0908 and a 5 m step with 0.41 m
 overshoot settling (2 %) in 5.0 s (paper.md 3.2). The continuous gains are emulated at 400 Hz
 (x_r integrated by forward Euler); paper.md 3.3 shows the discrete design differs by < 0.3 %.
@@ -19,8 +19,9 @@ import math
 from collections import Counter
 from dataclasses import dataclass
 
-import control as ct
 import numpy as np
+
+from flightcode.control.design import lqr
 
 #: Standard gravity, m/s^2.
 G_MPS2 = 9.80665
@@ -76,7 +77,7 @@ class AltitudeModel:
 
 
 class LqiAltitude:
-    """LQI altitude controller; gains from ``control.lqr`` at construction.
+    """LQI altitude controller; gains from the continuous LQR (``design.lqr``) at construction.
 
     Args:
         model: vertical model (gains depend on m, F_max, T1).
@@ -122,7 +123,7 @@ class LqiAltitude:
         a, b, c = model.state_space()
         a_aug = np.block([[a, np.zeros((3, 1))], [-c, np.zeros((1, 1))]])
         b_aug = np.vstack([b, np.zeros((1, 1))])
-        k, _, poles = ct.lqr(a_aug, b_aug, np.diag(weights), np.array([[float(r)]]))
+        k, _, poles = lqr(a_aug, b_aug, np.diag(weights), np.array([[float(r)]]))
         self.K: np.ndarray = np.asarray(k, dtype=float)
         self.F1: np.ndarray = self.K[0, :3].copy()
         self.F2: float = float(self.K[0, 3])

@@ -7,7 +7,7 @@ The memory attitude controller needs the reference and its first three derivativ
     G(s) = omega^3 / (s + omega)^3
 
 realised in phase-variable form x = [y, y', y''] and discretised exactly (zero-order hold on
-the command) with ``control.c2d`` at construction. The triple real pole gives a monotone step
+the command) with ZOH (``design.zoh``, what ``control.c2d`` computes) at construction. The triple real pole gives a monotone step
 response (no overshoot). The filter is unit-agnostic: angles in rad give rad, rad/s, rad/s^2,
 rad/s^3; altitude in m gives m, m/s, m/s^2, m/s^3 (the field names say rad because the
 attitude loop is the main user).
@@ -18,8 +18,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import control as ct
 import numpy as np
+
+from flightcode.control.design import zoh
 
 
 @dataclass(frozen=True)
@@ -54,13 +55,13 @@ class Prefilter3:
         w = self.omega_radps
         a = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-(w**3), -3.0 * w**2, -3.0 * w]])
         b = np.array([[0.0], [0.0], [w**3]])
-        sysd = ct.c2d(ct.ss(a, b, np.eye(3), np.zeros((3, 1))), self.T_s, method="zoh")
+        a_d, b_d = zoh(a, b, self.T_s)
         # Unrolled to plain floats: the tick path stays in scalar Python arithmetic.
-        rows = np.asarray(sysd.A, dtype=float).tolist()
+        rows = np.asarray(a_d, dtype=float).tolist()
         (self._a00, self._a01, self._a02) = rows[0]
         (self._a10, self._a11, self._a12) = rows[1]
         (self._a20, self._a21, self._a22) = rows[2]
-        self._b0, self._b1, self._b2 = np.asarray(sysd.B, dtype=float).ravel().tolist()
+        self._b0, self._b1, self._b2 = np.asarray(b_d, dtype=float).ravel().tolist()
         self._w3 = w**3
         self._c1 = 3.0 * w**2
         self._c2 = 3.0 * w

@@ -29,7 +29,7 @@ adds a zero-velocity pseudo-measurement (z' = 0, variance ``r_rest_vz``), so an 
 offset is learnt as bias b instead of being integrated into a fall (what made the estimate sink
 to -0.5..-1.5 m while disarmed); the height itself is still the barometer's.
 
-Discretisation at T_s: F, B by ``control.c2d`` (ZOH on u); Q by Van Loan from the white-noise
+Discretisation at T_s: F, B by ZOH on u (``design.zoh``, what ``control.c2d`` computes); Q by Van Loan from the white-noise
 PSDs (q_a, q_d, q_b) with ``filterpy.common.van_loan_discretization``; they are held in a
 ``filterpy.kalman.KalmanFilter`` (:attr:`AltitudeKF.kf`). The per-sample arithmetic is the
 same filter done in place on preallocated arrays: R is diagonal, so the measurements are
@@ -44,11 +44,11 @@ from __future__ import annotations
 import math
 from collections import Counter
 
-import control as ct
 import numpy as np
 from filterpy.common import van_loan_discretization
 from filterpy.kalman import KalmanFilter
 
+from flightcode.control.design import zoh
 from flightcode.control.lqi_altitude import AltitudeModel
 
 #: Initial variances [z m^2, z' (m/s)^2, a (m/s^2)^2, d (m/s^2)^2, b (m/s^2)^2] after reset:
@@ -104,13 +104,13 @@ class AltitudeKF:
         self.T_s = float(T_s)
         a_c, b_c = self.continuous_model(model)
         h = np.array([[1.0, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 1.0, 1.0]])
-        sysd = ct.c2d(ct.ss(a_c, b_c, h, np.zeros((2, 1))), self.T_s, method="zoh")
+        a_d, b_d = zoh(a_c, b_c, self.T_s)
         g = np.diag([0.0, 0.0, math.sqrt(q_a), math.sqrt(q_d), math.sqrt(q_b)])
         _, q_d_matrix = van_loan_discretization(a_c, g, self.T_s)
 
         kf = KalmanFilter(dim_x=5, dim_z=2, dim_u=1)
-        kf.F = np.asarray(sysd.A, dtype=float)
-        kf.B = np.asarray(sysd.B, dtype=float)
+        kf.F = np.asarray(a_d, dtype=float)
+        kf.B = np.asarray(b_d, dtype=float)
         kf.H = h
         # Symmetrise: Van Loan's product is symmetric only to rounding.
         kf.Q = 0.5 * (q_d_matrix + q_d_matrix.T)
