@@ -34,8 +34,7 @@ def run(rig: Rig | None = None, seed: int = 7, n_ticks: int = N_TICKS) -> dict[s
     turn as sent (SampleSent), and the plant's true height."""
     rig = rig or load_rig()
     rngs = spawn_rngs(seed)
-    kwargs = {"vibration_rng": rngs["vibration"]} if "vibration" in rngs else {}
-    plant = Plant(rig.plant, rngs["plant"], **kwargs)
+    plant = Plant(rig.plant, rngs["plant"], vibration_rng=rngs["vibration"])
     imu = MtiDevice(dataclasses.replace(rig.imu, output_configuration=OUTPUT_CONFIGURATION), rngs["imu"])
     analog = AnalogFrontEnd(rig.analog, rngs["analog"])
     tick = rig.tick_ns
@@ -45,13 +44,15 @@ def run(rig: Rig | None = None, seed: int = 7, n_ticks: int = N_TICKS) -> dict[s
         th = throttle_at(k)
         plant.step(t, (th, th, th, th))
         s = plant.sensors()
-        if hasattr(analog, "set_vibration"):
-            analog.set_vibration(t, getattr(s, "vib_f_acc_B", ()))
         analog.update(t, s.p_static_Pa, s.f_acc_B_mps2, s.air_T_C)
+        analog.set_vibration(s.t_ns, s.vib_f_acc_B)
         volts = [analog.volts(ch, t) for ch in range(4)]
-        imu.set_motion(s.q_NS, s.omega_S_radps, s.f_S_mps2)
-        if hasattr(imu, "set_vibration"):
-            imu.set_vibration(t, getattr(s, "vib_f_S", ()), getattr(s, "vib_omega_S", ()))
+        w, f = s.omega_S_radps, s.f_S_mps2
+        if s.vib_f_S:  # as DeviceSet.emit_imu
+            dv_f, dv_w = imu.vibration_S(s.vib_f_S, s.vib_omega_S, 0.0)
+            w = tuple(a + b for a, b in zip(w, dv_w, strict=True))  # type: ignore[assignment]
+            f = tuple(a + b for a, b in zip(f, dv_f, strict=True))  # type: ignore[assignment]
+        imu.set_motion(s.q_NS, w, f)
         imu.advance(t)
         imu.take_output()
         sent = [e for e in imu.take_events() if type(e).__name__ == "SampleSent"]
