@@ -394,7 +394,7 @@ class VibrationParams:
     magnitude U_i omega_i^2 rotating in the rotor plane with the rotor. It shakes the
     airframe at the rotor's frequency (97 Hz at hover, 133 Hz at full speed); the sensors
     see it through their own bandwidths. It is added to what the sensors measure, not to the
-    rigid-body dynamics (the displacement is 0.3 um).
+    rigid-body dynamics (the displacement is under 1 um).
 
     The default, 8.6e-7 kg m (0.86 g mm, 5.6 mg at the 152 mm blade tip), is ISO 1940-1
     balance grade G16 for the 45 g rotating mass at the 8000 rpm maximum service speed

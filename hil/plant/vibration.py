@@ -19,8 +19,8 @@ apply their own frequency response to it (emulators/vibration.py), which is exac
 sinusoid and so never aliases inside the model: the sampled value is the filtered sinusoid at
 the sample instant, and aliases as a real sampled sensor's would.
 
-The vibration is not fed back into the rigid-body dynamics: at 97 Hz a 0.3 N force moves the
-vehicle by 0.3 um and tilts it by 3e-6 rad, and resolving it would need RK4 steps well below
+The vibration is not fed back into the rigid-body dynamics: at 96 Hz a 0.31 N force moves the
+vehicle by 0.8 um and tilts it by 3e-6 rad, and resolving it would need RK4 steps well below
 the 1.25 ms sub-step. Centripetal terms (Omega^2 r) are second order and dropped.
 
 Phases are integrated from the rotor speeds with the trapezoidal rule on every RK4 sub-step,
