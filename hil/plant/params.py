@@ -417,7 +417,9 @@ class VibrationParams:
 
     def __post_init__(self) -> None:
         _require(len(self.imbalance_kgm) == 4, "imbalance_kgm needs 4 entries (one per rotor)")
-        _require(all(math.isfinite(u) and u >= 0.0 for u in self.imbalance_kgm), "imbalance_kgm must be finite and >= 0")
+        _require(
+            all(math.isfinite(u) and u >= 0.0 for u in self.imbalance_kgm), "imbalance_kgm must be finite and >= 0"
+        )
         _require(  # a unit slip (g mm for kg m) is 1e6 too large
             all(u <= 1e-3 for u in self.imbalance_kgm),
             "imbalance_kgm above 1e-3 kg m (1000 g mm, 370 N per rotor at hover speed): the unit is kg m, not g mm",

@@ -95,7 +95,8 @@ class Plant:
         self._vib: RotorImbalance | None = None
         if params.vibration.enabled:
             cw = tuple(not ccw for ccw in params.rotors.spin_ccw_from_above)
-            self._vib = RotorImbalance(params.vibration, cw, vibration_rng or rng.spawn(1)[0])
+            vib_rng = rng.spawn(1)[0] if vibration_rng is None else vibration_rng
+            self._vib = RotorImbalance(params.vibration, cw, vib_rng)
         self._state: PlantState | None = None
         self._rebuild()
 

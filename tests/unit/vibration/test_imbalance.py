@@ -218,7 +218,9 @@ def test_rig_errors_name_file_key_and_reason(table: dict[str, object], reason: s
     rotor=st.integers(0, 3),
     dt=st.floats(0.0, 0.01),
 )
-def test_property_cg_acceleration_magnitude_and_angle(omega: float, u: float, phase: float, rotor: int, dt: float) -> None:
+def test_property_cg_acceleration_magnitude_and_angle(
+    omega: float, u: float, phase: float, rotor: int, dt: float
+) -> None:
     """Any speed, imbalance, phase and rotor: at the CG the tone's value is a vector of length
     U w^2 / m in the rotor plane, at angle phase + w dt (mirrored for counter-clockwise rotors)."""
     vib = VibrationParams(imbalance_kgm=(u, u, u, u), imbalance_spread=0.0, phase_rad=(phase,) * 4)

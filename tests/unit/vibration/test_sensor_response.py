@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 
 from emulators import vibration
-from emulators.analog import AnalogFrontEnd, AnalogParams, Adxl335Params
+from emulators.analog import AnalogFrontEnd
 from emulators.analog.params import G0_MPS2
 from emulators.xsens.device import MtiDevice
 from emulators.xsens.params import XsensParams
@@ -64,7 +64,9 @@ def test_window_average_is_the_mean_of_the_sinusoid_over_the_window() -> None:
 @settings(max_examples=60, deadline=None)
 @given(f=st.floats(1.0, 2000.0), fc=st.floats(1.0, 1000.0), order=st.sampled_from([1, 2]),
        dt=st.floats(-0.01, 0.01), phase=st.floats(-10.0, 10.0))
-def test_property_tone_value_is_re_of_h_times_the_phasor(f: float, fc: float, order: int, dt: float, phase: float) -> None:
+def test_property_tone_value_is_re_of_h_times_the_phasor(
+    f: float, fc: float, order: int, dt: float, phase: float
+) -> None:
     """For any tone and low-pass: |value| bounded by |H| |amplitude|, and the value equals
     Re{H A e^(j phi)} computed with complex numbers; |H| falls with frequency."""
     tone = VibrationTone(2 * math.pi * f, phase, (0.3, -0.1, 0.02), (0.05, 0.2, -0.07))
@@ -84,7 +86,9 @@ def adxl_chain(C_uF: float, **accel: object) -> AnalogFrontEnd:
     return AnalogFrontEnd(dataclasses.replace(p, accel=acc), np.random.default_rng(0))
 
 
-def sampled_x_volts(fe: AnalogFrontEnd, tone: VibrationTone, n: int = 4000, step_ns: int = 50_000) -> tuple[np.ndarray, np.ndarray]:
+def sampled_x_volts(
+    fe: AnalogFrontEnd, tone: VibrationTone, n: int = 4000, step_ns: int = 50_000
+) -> tuple[np.ndarray, np.ndarray]:
     """Level at rest, the tone set at t = 0; CH1 (sensor X = body x) sampled every step_ns."""
     rest = (0.0, 0.0, -G0_MPS2)
     fe.update(0, 101_325.0, rest, 25.0)
@@ -124,7 +128,8 @@ def test_adxl335_vibration_goes_through_the_channel_rc_too() -> None:
     p = quiet()
     cond = list(p.conditioning)
     cond[1] = dataclasses.replace(cond[1], rc_cutoff_Hz=100.0)
-    fe = AnalogFrontEnd(dataclasses.replace(p, conditioning=tuple(cond)), np.random.default_rng(0))  # type: ignore[arg-type]
+    with_rc = dataclasses.replace(p, conditioning=tuple(cond))  # type: ignore[arg-type]
+    fe = AnalogFrontEnd(with_rc, np.random.default_rng(0))
     t, v = sampled_x_volts(fe, tone_x(97.0, 1.0))
     h = 1 / (complex(1, 97.0 / 49.736) * complex(1, 97.0 / 100.0))
     assert fit_sine(t, v, 97.0)[0] == pytest.approx(abs(h) * 0.1 * 3.3 / G0_MPS2, rel=1e-3)
