@@ -26,7 +26,7 @@ from hil.transport.base import LineSettings, Port
 GOTO_MEASUREMENT = 0x10  #: Xbus MID
 
 #: Names of the RNG streams, in spawn order (adding one at the end keeps the others).
-RNG_STREAMS = ("plant", "imu", "analog", "ppm", "esc", "xbee_vehicle", "xbee_ground", "link", "faults")
+RNG_STREAMS = ("plant", "imu", "analog", "ppm", "esc", "xbee_vehicle", "xbee_ground", "link", "faults", "vibration")
 
 EventSink = Callable[[str, DeviceEvent], None]
 
@@ -75,7 +75,7 @@ class DeviceSet:
 
         self.rig = rig
         self.rngs = spawn_rngs(seed)
-        self.plant = Plant(rig.plant, self.rngs["plant"])
+        self.plant = Plant(rig.plant, self.rngs["plant"], vibration_rng=self.rngs["vibration"])
         self.imu = MtiDevice(rig.imu, self.rngs["imu"])
         self.analog = AnalogFrontEnd(rig.analog, self.rngs["analog"])
         self.mcp = Mcp3204(rig.adc.mcp3204, self.analog.volts)
@@ -303,6 +303,7 @@ class DeviceSet:
     def latch_analog(self, t_ns: int) -> None:
         s = self.sensors
         self.analog.update(t_ns, s.p_static_Pa, s.f_acc_B_mps2, s.air_T_C)
+        self.analog.set_vibration(s.t_ns, s.vib_f_acc_B)
 
     def emit_imu(self, t_ns: int) -> tuple[bool, bool]:
         """Emit IMU sample(s) due at t_ns; returns (emitted, due).
@@ -312,7 +313,12 @@ class DeviceSet:
         watchdog shows up in sim time (DESIGN.md §4).
         """
         s = self.sensors
-        self.imu.set_motion(s.q_NS, s.omega_S_radps, s.f_S_mps2)
+        w, f = s.omega_S_radps, s.f_S_mps2
+        if s.vib_f_S:  # rotor vibration as this XSENS senses it at the sample instant, then any IMU fault
+            dv_f, dv_w = self.imu.vibration_S(s.vib_f_S, s.vib_omega_S, (t_ns - s.t_ns) * 1e-9)
+            f = (f[0] + dv_f[0], f[1] + dv_f[1], f[2] + dv_f[2])
+            w = (w[0] + dv_w[0], w[1] + dv_w[1], w[2] + dv_w[2])
+        self.imu.set_motion(s.q_NS, w, f)
         self.imu.advance(t_ns)
         out = self.imu.take_output()
         events = self.imu.take_events()

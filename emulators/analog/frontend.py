@@ -12,6 +12,13 @@ the same values. Sensor noise at one instant is shared by repeated samples of th
 electrical noise is drawn afresh for every sample. After the sensors' unit draws, normals
 come from the rng in blocks (conditioning.NormalStream): the same values in the same order.
 
+Vibration (``set_vibration``): the rotor-imbalance tones at the ADXL335 are added to each
+accelerometer channel at its sample instant, through that axis' output RC and the channel's
+conditioning RC as their exact steady-state response (emulators/vibration.py): a 97 Hz tone
+through the 50 Hz pole of a 0.1 uF capacitor keeps 46 % of its amplitude and lags 63 deg.
+They scale with the unit's sensitivity and cross-axis terms like the static part; the
+output swing is not applied to them (a few LSB against a 1.5 V margin).
+
 Speed (this runs every tick and inside every ADC transaction): plain floats except for the
 ADXL335's two 3x3 matrix products, which stay numpy's (BLAS may fuse multiply-adds, so a
 scalar rewrite would not give the same bits); the filter exponentials are computed once per
@@ -39,6 +46,7 @@ from emulators.analog.conditioning import (
 )
 from emulators.analog.mpx5100ap import Mpx5100ap
 from emulators.analog.params import G0_MPS2, P_SEA_LEVEL_PA, AnalogParams
+from emulators.vibration import Tone
 
 SIGNALS = ("baro", "accel_x", "accel_y", "accel_z")
 N_CHANNELS = 4
@@ -99,6 +107,14 @@ class AnalogFrontEnd:
         # Until the first update the chain rests at sea level, level, 25 C.
         self._t_ns: int | None = None
         self._init_state(self._static(P_SEA_LEVEL_PA, (0.0, 0.0, -G0_MPS2), 25.0))
+        # Vibration: volts per m/s^2 from body axes to each sensor axis (the linear part of
+        # static_V), and per wired accel channel its tones as (omega, phase, complex volts
+        # after the sensor and conditioning RCs), referred to _vib_t_ns.
+        self._vib_V_per_mps2 = (
+            (self.accel.sensitivity_V_per_g[:, None] * (self.accel.cross_axis @ self.accel.R_SB)) / G0_MPS2
+        ).tolist()
+        self._vib: dict[int, list[tuple[float, float, complex]]] = {}
+        self._vib_t_ns = 0
 
     # -- dynamics ----------------------------------------------------------------------
     def update(self, t_ns: int, p_Pa: float, f_B_mps2: Sequence[float], T_C: float) -> None:
@@ -130,6 +146,42 @@ class AnalogFrontEnd:
         self._u = u
         self._t_ns = t_ns
 
+    def set_vibration(self, t_ns: int, tones: Sequence[Tone]) -> None:
+        """Rotor vibration at the ADXL335 from now on: ``tones`` of specific force in body
+        FRD axes, m/s^2, referred to ``t_ns`` (emulators/vibration.py); () for none. Each
+        accelerometer channel adds them, through its RCs, at its sample instants."""
+        self._vib_t_ns = t_ns
+        if not tones:
+            if self._vib:
+                self._vib = {}
+            return
+        vib: dict[int, list[tuple[float, float, complex]]] = {}
+        for ch, sig in self._wired:
+            if sig == 0:
+                continue
+            row = self._vib_V_per_mps2[sig - 1]
+            tau_s, tau_rc = self._tau_sensor[sig], self._tau_rc[ch]
+            out = []
+            for tone in tones:
+                w, re, im = tone.omega_radps, tone.re, tone.im
+                a = row[0] * re[0] + row[1] * re[1] + row[2] * re[2]
+                b = row[0] * im[0] + row[1] * im[1] + row[2] * im[2]
+                h = 1.0 / (complex(1.0, w * tau_s) * complex(1.0, w * tau_rc))  # sensor RC, then the channel's
+                out.append((w, tone.phase_rad, h * complex(a, b)))
+            vib[ch] = out
+        self._vib = vib
+
+    def _vibration_V(self, ch: int, t_ns: int) -> float:
+        tones = self._vib.get(ch)
+        if not tones or self.accel_fault.saturate:
+            return 0.0
+        dt_s = (t_ns - self._vib_t_ns) * 1e-9
+        v = 0.0
+        for w, phase, c in tones:
+            phi = phase + w * dt_s
+            v += c.real * math.cos(phi) - c.imag * math.sin(phi)
+        return v * self.accel_fault.scale
+
     def volts(self, channel: int, t_ns: int) -> float:
         """Voltage at ADC input ``channel`` (0..3) at ``t_ns``, noise included."""
         if not 0 <= channel < N_CHANNELS:
@@ -149,7 +201,7 @@ class AnalogFrontEnd:
 
     @property
     def latched_V(self) -> tuple[float, ...]:
-        """Noise-free pin voltages at the last update (for the recorder)."""
+        """Noise-free, vibration-free pin voltages at the last update (for the recorder)."""
         return tuple(
             0.0 if sig is None else amplify(self._x2[ch], self.params.conditioning[ch])
             for ch, sig in enumerate(self._sig)
@@ -221,6 +273,8 @@ class AnalogFrontEnd:
         elif t_ns < t_state:
             self.counters["sample_before_update"] += 1
         factor = self.baro_fault.noise_factor if sig == 0 else self.accel_fault.noise_factor
+        if self._vib:
+            x2 += self._vibration_V(ch, t_ns)
         v = x2 + self._noise[ch].at(t_ns, factor)
         if frozen:
             self._frozen[ch] = v

@@ -36,6 +36,7 @@ from dataclasses import fields
 
 import numpy as np
 
+from emulators import vibration
 from emulators.base import ByteDevice
 from emulators.xsens import legacy
 from emulators.xsens.codec import Frame, FrameParser, encode_frame
@@ -103,6 +104,7 @@ class MtiDevice(ByteDevice):
         self._baud_bps = params.baud_bps
         self._parser = FrameParser(max_payload=params.rx_max_payload_bytes, timeout_ns=params.rx_timeout_ns)
         self._errors = ErrorModel(params, rng)
+        self._response = params.sensor_response()
         self._builder = SampleBuilder(params)
         self._builder.alignment = self._settings.alignment
         g = params.gravity_mps2
@@ -156,6 +158,31 @@ class MtiDevice(ByteDevice):
         """Static pressure (Pa) and sensor temperature (degC) for BaroPressure/Temperature."""
         self._builder.pressure_Pa = float(p_Pa)
         self._builder.temperature_degC = float(temperature_degC)
+
+    def vibration_S(
+        self, f_tones: Sequence[vibration.Tone], omega_tones: Sequence[vibration.Tone], dt_s: float
+    ) -> tuple[Vec3, Vec3]:
+        """What this device's sensors make of vibration tones ``dt_s`` after the tones'
+        reference time: ``(f_S_mps2, omega_S_radps)`` to add to the rigid-body motion given
+        to :meth:`set_motion` (sensor frame S). Each tone passes the sensor's bandwidth
+        low-pass and, on an mk4, the mean over the output interval (strapdown integration);
+        its value at a sample instant is what that sample carries (aliasing included)."""
+        if not f_tones and not omega_tones:
+            return vibration.ZERO3, vibration.ZERO3
+        r = self._response
+        order = self.params.bandwidth_order
+        window_s = 0.0
+        if r.averaging:
+            period = self._schedule.period_ns or 1_000_000_000 // self.params.sample_rate_hz
+            window_s = period * 1e-9
+
+        def acc(w: float) -> complex:
+            return vibration.lowpass(w, r.acc_bandwidth_Hz, order) * vibration.window_average(w, window_s)
+
+        def gyr(w: float) -> complex:
+            return vibration.lowpass(w, r.gyro_bandwidth_Hz, order) * vibration.window_average(w, window_s)
+
+        return vibration.sum_tones(f_tones, acc, dt_s), vibration.sum_tones(omega_tones, gyr, dt_s)
 
     # -- fault hooks ------------------------------------------------------------------------
     def set_silenced(self, on: bool) -> None:

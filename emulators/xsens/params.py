@@ -77,6 +77,29 @@ IDENTITY_DEFAULTS: dict[Identity, IdentityDefaults] = {
     ),
 }
 
+@dataclass(frozen=True)
+class SensorResponse:
+    """How the inertial sensors answer fast motion (used for the rotor vibration tones).
+
+    ``acc_bandwidth_Hz``/``gyro_bandwidth_Hz``: -3 dB bandwidths; ``averaging``: whether an
+    output is the mean over its output interval (strapdown integration, then dv/dt).
+    """
+
+    acc_bandwidth_Hz: float
+    gyro_bandwidth_Hz: float
+    averaging: bool
+
+
+SENSOR_RESPONSE_DEFAULTS: dict[Identity, SensorResponse] = {
+    # MTi-300 datasheet (Movella, May 2023): accelerometer 375 Hz, gyroscope 415 Hz (-3 dB).
+    # MT0605P rev. E 4.9.3: "Calibrated data has been going through Strapdown Integration and
+    # Inverse Strapdown Integration", i.e. dv / dt over the output interval: a mean.
+    Identity.MK4: SensorResponse(375.0, 415.0, True),
+    # 2012 MTi (MT0100P): accelerometer 30 Hz, rate gyroscope 40 Hz; MT0100P 4.5.2: the
+    # calibrated data is "unprocessed ... no additional filtering", so a point sample.
+    Identity.LEGACY: SensorResponse(30.0, 40.0, False),
+}
+
 #: Filter profiles of the golden MTi-300 (type, version, label).
 MTI300_FILTER_PROFILES: tuple[tuple[int, int, str], ...] = (
     (39, 15, "general"),
@@ -126,6 +149,14 @@ class XsensParams:
             (MTi-300 static accuracy 0.2 deg roll/pitch, 1 deg heading).
         orientation_noise_deg: white orientation noise per sample (sigma).
         acc_range_mps2, gyro_range_radps: saturation (clip bits in the status word).
+        acc_bandwidth_Hz, gyro_bandwidth_Hz: -3 dB bandwidths of the accelerometers and
+            gyroscopes; None = the identity's (:data:`SENSOR_RESPONSE_DEFAULTS`: mk4 375 /
+            415 Hz, legacy 30 / 40 Hz). Applied to the rotor vibration tones
+            (emulators/vibration.py); the rigid-body motion (< 10 Hz) passes unfiltered.
+        bandwidth_order: 1 (single pole) or 2 (Butterworth) for those low-passes. The
+            documents give only the -3 dB point; 1 is the choice that lets more through.
+        output_averaging: outputs are the mean over the output interval (mk4 strapdown
+            integration); None = the identity's (mk4 yes, legacy no).
 
     Environment seen by the other outputs:
         mag_field_N_au: Earth field in NED, normalised (1 = calibration field).
@@ -169,6 +200,10 @@ class XsensParams:
     orientation_noise_deg: float = 0.05
     acc_range_mps2: float = 200.0
     gyro_range_radps: float = math.radians(450.0)
+    acc_bandwidth_Hz: float | None = None
+    gyro_bandwidth_Hz: float | None = None
+    bandwidth_order: int = 1
+    output_averaging: bool | None = None
 
     mag_field_N_au: tuple[float, float, float] = (0.5, 0.0, 0.866)
     temperature_degC: float = 35.0
@@ -180,10 +215,25 @@ class XsensParams:
             raise ValueError(f"sample_rate_hz={self.sample_rate_hz} must divide 1e9 ns")
         if self.baud_bps not in BAUD_BPS_BY_CODE.values():
             raise ValueError(f"baud_bps={self.baud_bps} is not an Xbus rate: {sorted(set(BAUD_BPS_BY_CODE.values()))}")
+        for name in ("acc_bandwidth_Hz", "gyro_bandwidth_Hz"):
+            bw = getattr(self, name)
+            if bw is not None and not (math.isfinite(bw) and bw > 0.0):
+                raise ValueError(f"{name}={bw} must be a finite frequency > 0 Hz (or left out: the identity's)")
+        if self.bandwidth_order not in (1, 2):
+            raise ValueError(f"bandwidth_order={self.bandwidth_order} must be 1 (single pole) or 2 (Butterworth)")
 
     @property
     def defaults(self) -> IdentityDefaults:
         return IDENTITY_DEFAULTS[Identity(self.identity)]
+
+    def sensor_response(self) -> SensorResponse:
+        """Bandwidths and averaging with the identity's defaults filled in."""
+        d = SENSOR_RESPONSE_DEFAULTS[Identity(self.identity)]
+        return SensorResponse(
+            d.acc_bandwidth_Hz if self.acc_bandwidth_Hz is None else self.acc_bandwidth_Hz,
+            d.gyro_bandwidth_Hz if self.gyro_bandwidth_Hz is None else self.gyro_bandwidth_Hz,
+            d.averaging if self.output_averaging is None else self.output_averaging,
+        )
 
     def resolved(self) -> ResolvedIdentity:
         """Concrete identity values (defaults filled in)."""

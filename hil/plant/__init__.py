@@ -41,6 +41,7 @@ from hil.plant.params import (
     PlantParams,
     RotorParams,
     SensorMountParams,
+    VibrationParams,
     WindParams,
 )
 from hil.plant.plant import Plant, PlantState, SensorTruth
@@ -60,6 +61,7 @@ __all__ = [
     "RotorParams",
     "SensorMountParams",
     "SensorTruth",
+    "VibrationParams",
     "WindParams",
     "throttle_from_pulse_us",
 ]

@@ -375,6 +375,62 @@ class SensorMountParams:
         _require(_finite(vals + self.imu_rotation_BS_rpy_deg), "sensor mounting must be finite")
 
 
+#: Rotating mass of one rotor: APC 12x4.5 prop (~19 g, the blade of ``rotor_inertia_kgm2``)
+#: plus the bell of a ~900 kV outrunner (~26 g), assumed.
+ROTOR_ROTATING_MASS_KG = 0.045
+
+
+def iso1940_imbalance_kgm(grade_mm_per_s: float, rotor_mass_kg: float, omega_service_radps: float) -> float:
+    """Permissible residual imbalance U = m e (kg m) of ISO 1940-1 (ISO 21940-11) balance grade
+    ``G`` (mm/s) at the maximum service speed: e = G / Omega."""
+    return rotor_mass_kg * grade_mm_per_s * 1e-3 / omega_service_radps
+
+
+@dataclass(frozen=True)
+class VibrationParams:
+    """Per-rotor static mass imbalance (hil/plant/vibration.py, docs/vibration.md).
+
+    Rotor ``i`` carries an imbalance U_i = m_u r_u (kg m) at its own phase: a force of
+    magnitude U_i omega_i^2 rotating in the rotor plane with the rotor. It shakes the
+    airframe at the rotor's frequency (97 Hz at hover, 133 Hz at full speed); the sensors
+    see it through their own bandwidths. It is added to what the sensors measure, not to the
+    rigid-body dynamics (the displacement is under 1 um).
+
+    The default, 8.6e-7 kg m (0.86 g mm, 5.6 mg at the 152 mm blade tip), is ISO 1940-1
+    balance grade G16 for the 45 g rotating mass at the 8000 rpm maximum service speed
+    (e = G / Omega = 19 um): a hobby prop balanced statically (assumed). G6.3, the grade of
+    fans and motor rotors, gives 3.4e-7 (``iso1940_imbalance_kgm``).
+    """
+
+    __pydantic_config__ = {"extra": "forbid"}
+
+    #: False: no vibration at all (the sensors get exactly what they got before the model).
+    enabled: bool = True
+    #: U = m_u r_u per rotor (ESC channel order), kg m.
+    imbalance_kgm: tuple[float, float, float, float] = (8.6e-7, 8.6e-7, 8.6e-7, 8.6e-7)
+    #: Each rotor's U is multiplied by a factor drawn uniformly from [1 - spread, 1 + spread]
+    #: (the vibration Generator; 0: exactly ``imbalance_kgm``). Props of one batch differ.
+    imbalance_spread: float = 0.5
+    #: Angle of each heavy spot at sim time 0 from body +x, in the rotor's direction of
+    #: rotation, rad; None: drawn uniformly in [0, 2 pi) from the vibration Generator.
+    phase_rad: tuple[float, float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        _require(len(self.imbalance_kgm) == 4, "imbalance_kgm needs 4 entries (one per rotor)")
+        _require(
+            all(math.isfinite(u) and u >= 0.0 for u in self.imbalance_kgm), "imbalance_kgm must be finite and >= 0"
+        )
+        _require(  # a unit slip (g mm for kg m) is 1e6 too large
+            all(u <= 1e-3 for u in self.imbalance_kgm),
+            "imbalance_kgm above 1e-3 kg m (1000 g mm, 370 N per rotor at hover speed): the unit is kg m, not g mm",
+        )
+        _require(0.0 <= self.imbalance_spread < 1.0, "imbalance_spread must be in [0, 1)")
+        _require(
+            self.phase_rad is None or (len(self.phase_rad) == 4 and _finite(self.phase_rad)),
+            "phase_rad needs 4 finite angles (or leave it out to draw them)",
+        )
+
+
 @dataclass(frozen=True)
 class PlantParams:
     """Everything the plant needs; the defaults are the paper's quad-rotor.
@@ -392,6 +448,7 @@ class PlantParams:
     environment: EnvironmentParams = field(default_factory=EnvironmentParams)
     wind: WindParams = field(default_factory=WindParams)
     sensors: SensorMountParams = field(default_factory=SensorMountParams)
+    vibration: VibrationParams = field(default_factory=VibrationParams)
     tick_ns: int = 2_500_000
     substeps: int = 4
     initial_yaw_rad: float = 0.0

@@ -7,8 +7,10 @@ Theory of operation. ``step(t_ns, throttle)`` integrates from the current sim ti
 operating point from the rotors' shaft power, which sets ``omega_max`` and so the speed
 commands ``throttle * omega_max``. The tick is then integrated with ``substeps`` fixed RK4
 steps of the 17-state model (dynamics.py), with ground contact handled between sub-steps
-(ground.py). Nothing here reads a clock or does I/O; the only randomness is the wind's
-Generator, passed in.
+(ground.py). The rotor-imbalance phases advance with every sub-step (vibration.py); the
+vibration reaches the sensors as tones in ``sensors()``, not the rigid body. Nothing here
+reads a clock or does I/O; the only randomness is the wind's and the vibration's
+Generators, passed in.
 
 Reference point: ``p_N_m``/``v_N_mps``/``h_m`` are of the body origin (hub centre), which is
 the empty vehicle's CG; the integrator tracks the CG, which moves with a payload.
@@ -31,6 +33,7 @@ from hil.plant.params import GustShape, PlantParams
 from hil.plant.records import PlantState, SensorTruth
 from hil.plant.rigid_body import MassProperties, base_mass_properties, with_payload
 from hil.plant.rotors import lag_step, rotor_geometry
+from hil.plant.vibration import RotorImbalance
 from hil.plant.wind import ZERO_GRADIENT, WindModel
 
 Vec3 = tuple[float, float, float]
@@ -46,10 +49,19 @@ class Plant:
 
     ``params``: PlantParams; ``rng``: the Generator for the wind turbulence; ``t0_ns``: the
     sim time of the initial state (at rest on the ground, level, heading
-    ``params.initial_yaw_rad``, rotors stopped).
+    ``params.initial_yaw_rad``, rotors stopped); ``vibration_rng``: the Generator of the
+    rotor imbalances (None: a child spawned from ``rng``, which leaves ``rng``'s own draws
+    unchanged).
     """
 
-    def __init__(self, params: PlantParams, rng: np.random.Generator, *, t0_ns: int = 0) -> None:
+    def __init__(
+        self,
+        params: PlantParams,
+        rng: np.random.Generator,
+        *,
+        t0_ns: int = 0,
+        vibration_rng: np.random.Generator | None = None,
+    ) -> None:
         self.params = params
         #: Events and oddities: ``throttle_clamped``/``throttle_nan`` (per value cleaned),
         #: ``liftoffs``, ``touchdowns``, ``battery_empty``/``battery_power_limited`` (per
@@ -80,6 +92,11 @@ class Plant:
         self.last_touchdown: ground.Touchdown | None = None
         mount = params.sensors
         self._q_BS = quat.from_euler(*(math.radians(a) for a in mount.imu_rotation_BS_rpy_deg))
+        self._vib: RotorImbalance | None = None
+        if params.vibration.enabled:
+            cw = tuple(not ccw for ccw in params.rotors.spin_ccw_from_above)
+            vib_rng = rng.spawn(1)[0] if vibration_rng is None else vibration_rng
+            self._vib = RotorImbalance(params.vibration, cw, vib_rng)
         self._state: PlantState | None = None
         self._rebuild()
 
@@ -119,6 +136,17 @@ class Plant:
         self._k = k
         self._hubs_B = tuple(zip(k.rotor_x_m, k.rotor_y_m, k.rotor_z_m, strict=True))
         self._f = make_derivative(k)
+        if self._vib is not None:
+            m = self.params.sensors
+            imu, acc = m.imu_position_B_m, m.accel_position_B_m
+            self._vib.set_geometry(
+                self._hubs_B,
+                self._mass.mass_kg,
+                self._mass.inverse_inertia,
+                (imu[0] - c[0], imu[1] - c[1], imu[2] - c[2]),
+                (acc[0] - c[0], acc[1] - c[1], acc[2] - c[2]),
+                quat.to_matrix(quat.conj(self._q_BS)),
+            )
         self._state = None
 
     def _omega_max_at(self, battery_V: float) -> float:
@@ -190,7 +218,10 @@ class Plant:
         u: Inputs = (th[0] * om, th[1] * om, th[2] * om, th[3] * om, wn, we, wd, sigma, *offsets)
         self._u = u
         f = self._f
+        vib = self._vib
         for k in range(n):
+            if vib is not None:  # the imbalance phases follow the rotors, grounded or not
+                w0 = (x[13], x[14], x[15], x[16])
             if self._on_ground:
                 if f(x, u)[5] < 0.0:  # free-flight acceleration points up: lift off
                     self._on_ground = False
@@ -199,8 +230,12 @@ class Plant:
                     rp = p.rotors
                     for i in range(4):
                         x[13 + i] = lag_step(x[13 + i], u[i], h_s, rp.tau_up_s, rp.tau_down_s)
+                    if vib is not None:
+                        vib.advance(w0, (x[13], x[14], x[15], x[16]), h_s)
                     continue
             x = rk4_step(f, x, u, h_s)
+            if vib is not None:
+                vib.advance(w0, (x[13], x[14], x[15], x[16]), h_s)
             if ground.origin_height_m(x, cg) < 0.0:
                 self.last_touchdown = ground.touchdown_record(x, t_ns + (k + 1) * dt_ns // n)
                 self.counters["touchdowns"] += 1
@@ -327,6 +362,9 @@ class Plant:
         h = ground.origin_height_m(x, self._mass.cg_B_m)
         port_above_ground = h + self._gear_m - quat.rotate(q, m.baro_position_B_m)[2]
         total_thrust = sum(self._thrusts())
+        vib_f_S = vib_w_S = vib_f_acc_B = ()
+        if self._vib is not None:
+            vib_f_S, vib_w_S, vib_f_acc_B = self._vib.tones((x[13], x[14], x[15], x[16]))
         return SensorTruth(
             t_ns=self._t_ns,
             q_NS=quat.mul(q, self._q_BS),
@@ -335,7 +373,15 @@ class Plant:
             f_acc_B_mps2=f_acc_B,
             p_static_Pa=self._atmo.pressure_Pa(port_above_ground) + self._wash.error_Pa(total_thrust, h),
             air_T_C=self._atmo.temperature_K(port_above_ground) - ZERO_C_K,
+            vib_f_S=vib_f_S,
+            vib_omega_S=vib_w_S,
+            vib_f_acc_B=vib_f_acc_B,
         )
+
+    @property
+    def rotor_imbalance(self) -> RotorImbalance | None:
+        """The rotor-imbalance model (its phases and this vehicle's imbalances); None if off."""
+        return self._vib
 
     @property
     def mass_properties(self) -> MassProperties:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -32,6 +33,23 @@ class PlantState:
     h_m: float
 
 
+class VibrationTone(NamedTuple):
+    """One rotor's vibration at one sensor, a sinusoid per axis (hil/plant/vibration.py):
+
+        v(t) = Re{(re + j im) e^(j phi)} = re cos(phi) - im sin(phi),
+        phi = phase_rad + omega_radps (t - t_ref)
+
+    with ``t_ref`` the sim time of the record that carries it, and the frequency and phase
+    held for extrapolation. Units and axes are those of the field that holds the tone.
+    (A NamedTuple, not a dataclass: up to 12 are made every tick.)
+    """
+
+    omega_radps: float
+    phase_rad: float
+    re: Vec3
+    im: Vec3
+
+
 @dataclass(frozen=True)
 class SensorTruth:
     """Physical inputs of the sensors, noise-free (the emulators add their errors).
@@ -40,6 +58,12 @@ class SensorTruth:
     specific force at its location, in its sensor frame S (FRD convention: z down, so a
     level IMU at rest reads f_S = (0, 0, -g); see SensorMountParams). ``f_acc_B_mps2``: specific force
     at the ADXL335, body FRD axes. ``p_static_Pa``: pressure at the barometer port.
+
+    The rotor-imbalance vibration is not in the fields above (rigid-body motion only): it
+    comes as tones, one per spinning rotor, which each sensor passes through its own
+    frequency response (emulators/vibration.py). ``vib_f_S``: specific force at the IMU,
+    sensor frame S, m/s^2; ``vib_omega_S``: angular rate at the IMU, S, rad/s;
+    ``vib_f_acc_B``: specific force at the ADXL335, body FRD, m/s^2. Empty: no vibration.
     """
 
     t_ns: int
@@ -49,3 +73,6 @@ class SensorTruth:
     f_acc_B_mps2: Vec3
     p_static_Pa: float
     air_T_C: float
+    vib_f_S: tuple[VibrationTone, ...] = ()
+    vib_omega_S: tuple[VibrationTone, ...] = ()
+    vib_f_acc_B: tuple[VibrationTone, ...] = ()
