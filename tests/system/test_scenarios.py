@@ -146,7 +146,7 @@ async def test_altitude_step_settles_on_the_seed_that_used_to_swing_out(fly) -> 
 @pytest.mark.xfail(
     strict=True,
     reason="issue 13: with the twins in the same air (fixed), +300 g raises the tracking RMS by "
-    "14-22 % on seeds 1-5 (seed 1: about +22 %): the rotors turn 13 % faster and the rotor "
+    "13-25 % on seeds 1-5 (seed 1: +25 %): the rotors turn 13 % faster and the rotor "
     "aerodynamics' moments grow with them; no bench bug or open gain explains it "
     "(docs/aerodynamics.md section 4). Passed before only because the twins flew different "
     "turbulence. Strict: a pass must be looked at.",
