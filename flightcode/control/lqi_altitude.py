@@ -11,6 +11,15 @@ Riccati equation (``flightcode.control.design.lqr``, python-control's ``lqr`` co
 8.25e-3), R = 1 give F1 = [0.1415, 0.1103, 0.00796], F2 = -0.0908 and a 5 m step with 0.41 m
 overshoot settling (2 %) in 5.0 s (paper.md 3.2). The continuous gains are emulated at 400 Hz
 (x_r integrated by forward Euler); paper.md 3.3 shows the discrete design differs by < 0.3 %.
+
+The model has no vertical damping, and the weights are the design's only free knob (the paper
+gives neither Q nor R). On a vehicle whose rotors damp climbs and descents (inflow drag: the
+bench's plant has 1.5 N/(m/s), a pole at -1.4 rad/s next to the loop's 1.3 rad/s) the default
+weights give a slower, less damped loop: poles -0.45 +- 0.76j, 0.73 m overshoot and 6.4 s to
+settle into +-0.25 m (linear). Weighting the integral more and the height a little, q_int =
+0.04 and q_z = 0.003, gives 0.58 m and 4.7 s there (the bench's rig flies these:
+rigs/paper-quad.toml [flight.overrides.altitude]; docs/flightcode.md "Retuning the altitude
+LQI").
 """
 
 from __future__ import annotations

@@ -164,8 +164,11 @@ class DrydenFilter:
     """The Dryden state advanced on a grid of ``dt_s`` with deviates from ``rng``.
 
     ``set_conditions(intensity, V, span)`` (re)builds the discrete model, keeping the state
-    (an altitude change moves the scale lengths; the state carries over). ``step()`` returns
-    the 6 outputs of the next grid point.
+    (an altitude change moves the scale lengths; the state carries over) and the white-noise
+    sequence: grid step k is driven by the k-th 8 deviates of ``rng`` whatever the
+    conditions did, so the same seed gives the same noise to two vehicles that fly
+    differently (twin runs). ``step()`` advances to the next grid point; ``output()`` gives its
+    6 outputs.
     """
 
     def __init__(self, rng: np.random.Generator, dt_s: float) -> None:
@@ -175,6 +178,9 @@ class DrydenFilter:
         self._phi = np.eye(N_STATES)
         self._l = np.zeros((N_STATES, N_STATES))
         self._c = np.zeros((6, N_STATES))
+        #: unit normal deviates, one row per grid step, drawn in blocks; and the same rows
+        #: shaped by the current noise gain (``_raw @ L^T``)
+        self._raw = np.zeros((0, N_STATES))
         self._noise = np.zeros((0, N_STATES))
         self._next = 0
         self._cache: dict[tuple[float, float, float, float, float, float, float, float], tuple] = {}
@@ -189,8 +195,12 @@ class DrydenFilter:
         self._phi, self._l, self._c, p_sqrt = self._cache[key]
         if self._x is None:
             self._x = p_sqrt @ self._rng.standard_normal(N_STATES)
-        self._noise = np.zeros((0, N_STATES))  # the noise gain changed: redraw
-        self._next = 0
+        # The deviates already drawn are kept and only re-shaped with the new gain: the k-th
+        # grid step always uses the k-th row of the Generator's stream, whenever and however
+        # often the conditions change. (Redrawing here made the series depend on the times
+        # the vehicle's height crossed a band: twin runs with and without a payload got
+        # different turbulence from its sag on, same seed.)
+        self._noise = self._raw @ self._l.T
 
     def output(self) -> list[float]:
         """The 6 outputs at the current grid point."""
@@ -201,8 +211,9 @@ class DrydenFilter:
     def step(self) -> None:
         """Advance one grid step."""
         if self._next >= len(self._noise):
-            # deviates in blocks, already shaped by the noise gain (one matmul per block)
-            self._noise = self._rng.standard_normal((256, N_STATES)) @ self._l.T
+            # deviates in blocks, shaped by the noise gain once per block (one matmul)
+            self._raw = self._rng.standard_normal((256, N_STATES))
+            self._noise = self._raw @ self._l.T
             self._next = 0
         self._x = self._phi @ self._x + self._noise[self._next]
         self._next += 1

@@ -129,10 +129,32 @@ async def test_hover_that_never_took_off_fails(tmp_path: Path) -> None:
     assert not result.passed
 
 
+async def test_altitude_step_settles_on_the_seed_that_used_to_swing_out(fly) -> None:
+    """Issue 13: with the paper.md 3.2 LQI weights the rotors' inflow damping made the
+    altitude loop slow and underdamped; seed 3 swung back out of the +-5 % band and settled
+    only 10.2 s after the step (seed 5: 11.1 s). With the rig's weights (rigs/paper-quad.toml
+    [flight.overrides.altitude]) it settles in about 5 s (5.5 s measured) with about 0.5 m
+    of overshoot, as the paper's Fig. 9. The shipped scenario's own seed (1) runs above."""
+    result = await fly("altitude-step", seed=3)
+    assert result.end_reason is EndReason.COMPLETED, explain(result)
+    assert result.passed, explain(result)
+    by_name = {c.name: c.value for c in result.criteria}
+    assert by_name["settles within +-5 % of the step"] <= 7.0, explain(result)
+    assert 0.2 <= by_name["overshoot about 0.5 m over pre-step + 5 m"] <= 0.8, explain(result)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="issue 13: with the twins in the same air (fixed), +300 g raises the tracking RMS by "
+    "13-25 % on seeds 1-5 (seed 1: +25 %): the rotors turn 13 % faster and the rotor "
+    "aerodynamics' moments grow with them; no bench bug or open gain explains it "
+    "(docs/aerodynamics.md section 4). Passed before only because the twins flew different "
+    "turbulence. Strict: a pass must be looked at.",
+)
 async def test_payload_barely_changes_tracking_on_twin_runs(tmp_path: Path) -> None:
     """Paper Fig. 8 on twin runs: the payload scenario and the same flight without the
-    payload event, same seed, same turbulence. The tracking RMS over 27-39 s (the payload
-    is aboard from 22 s) differs by less than 15 %."""
+    payload event, same seed, same turbulence (sample for sample). The tracking RMS over
+    27-39 s (the payload is aboard from 22 s) differs by less than 15 %."""
     import numpy as np
 
     from hil.bench import Mode

@@ -113,6 +113,60 @@ def test_same_seed_same_series_whatever_the_call_pattern() -> None:
     assert _dryden_wind(4).at(400 * 2_500_000, 2.0) != a.at(400 * 2_500_000, 2.0)
 
 
+def test_rebuilding_the_filter_keeps_the_white_noise_sequence() -> None:
+    """Grid step k is driven by the k-th row of deviates whatever set_conditions did: a
+    rebuild with the same conditions (every step, mid-block) changes nothing, and one with
+    other conditions only re-shapes the same deviates."""
+    i = low_altitude_intensity(7.72, 2.0)
+    a, b = DrydenFilter(np.random.default_rng(5), DT_S), DrydenFilter(np.random.default_rng(5), DT_S)
+    a.set_conditions(i, 7.72, 0.66)
+    b.set_conditions(i, 7.72, 0.66)
+    out_a, out_b = [], []
+    for _ in range(700):  # several 256-row blocks
+        a.step()
+        b.set_conditions(i, 7.72, 0.66)
+        b.step()
+        out_a.append(a.output())
+        out_b.append(b.output())
+    assert out_a == out_b
+    # Other conditions in between: the deviates of each step are still the stream's own
+    c = DrydenFilter(np.random.default_rng(5), DT_S)
+    c.set_conditions(i, 7.72, 0.66)
+    other = low_altitude_intensity(7.72, 30.0)
+    c.set_conditions(other, 7.72, 0.66)
+    for _ in range(100):
+        c.step()
+    c.set_conditions(i, 7.72, 0.66)
+    rng = np.random.default_rng(5)
+    rng.standard_normal(8)  # the initial state's draw
+    raw = rng.standard_normal((256, 8))
+    np.testing.assert_array_equal(c._noise, raw @ c._l.T)
+
+
+def test_twin_plants_get_the_same_turbulence_whatever_their_heights() -> None:
+    """Two vehicles, same seed: one takes a 300 g payload and sinks, crossing other 5 %
+    height bands at other times (below the MIL model's 10 ft floor, so at the same
+    intensities). The wind they fly in stays identical, sample for sample: a twin run with
+    and without a payload compares the vehicles, not two turbulence draws. (Redrawing the
+    noise block on every band change made the series part after the first difference.)"""
+    params = replace(PlantParams(), wind=WindParams(mean_N_mps=(6.18, 4.63, 0.0), dryden=True))
+    light, heavy = make_plant(params, seed=3), make_plant(params, seed=3)
+    winds: list[list[tuple[float, float, float]]] = [[], []]
+    heights: list[list[float]] = [[], []]
+    for plant in (light, heavy):
+        plant.set_kinematic_state((0.0, 0.0, -2.8), rotor_omega_radps=(607.0,) * 4)
+    heavy.set_payload(0.3, (0.0, 0.02, 0.0))
+    throttle = 607.0 / light.omega_max_radps
+    for k in range(1, 401):  # 1 s: the heavy one sinks about 1.3 m
+        for j, plant in enumerate((light, heavy)):
+            plant.step(k * 2_500_000, [throttle] * 4)
+            winds[j].append(plant.state.wind_N_mps)
+            heights[j].append(plant.state.h_m)
+    bands = [np.floor(np.log(np.array(h)) / math.log(1.05)) for h in heights]
+    assert np.any(bands[0] != bands[1]) and min(heights[1]) > 0.5
+    assert winds[0] == winds[1]
+
+
 def test_wind_axes_follow_the_mean_wind_heading() -> None:
     """With the mean wind towards the east, the along-wind gradient dw/dx of wind axes is
     d(wind_D)/d(east) in NED, and dv/dx is d(wind_N)/d(east) with the sign of v's axis

@@ -201,3 +201,49 @@ def test_bad_construction_is_rejected() -> None:
         LqiAltitude(AltitudeModel(), q_int=0.0)
     with pytest.raises(ValueError):
         LqiAltitude(AltitudeModel(), u_min=0.1)
+
+
+def _damped_step(lqi: LqiAltitude, model: AltitudeModel, c_N_per_mps: float) -> tuple[float, float, np.ndarray]:
+    """(overshoot m, settling s into +-0.25 m, closed-loop poles) of a linear 5 m step on the
+    design model plus a vertical damping force -c z' (full state feedback, z'' measured)."""
+    a, b, _ = model.state_space()
+    a = a.copy()
+    a[1, 1] = -c_N_per_mps / model.m_kg  # z'' = a_thrust - (c/m) z'
+    k = lqi.K.ravel()
+    # u = -(k0 z + k1 z' + k2 z'') - k3 x_r with z'' = a_thrust - (c/m) z'
+    u_row = np.array([-k[0], -k[1] + k[2] * c_N_per_mps / model.m_kg, -k[2], -k[3]])
+    a_cl = np.zeros((4, 4))
+    a_cl[:3, :3] = a
+    a_cl[3, 0] = -1.0
+    a_cl[:3, :] += b @ u_row[None, :]
+    sys = ct.ss(a_cl, np.array([[0.0], [0.0], [0.0], [5.0]]), np.array([[1.0, 0, 0, 0]]), 0)
+    t, y = ct.step_response(sys, np.linspace(0.0, 30.0, 12001))
+    outside = np.nonzero(np.abs(y - 5.0) > 0.25)[0]
+    return float(np.max(y) - 5.0), float(t[outside[-1] + 1]), np.linalg.eigvals(a_cl)
+
+
+def test_rig_weights_give_the_5_s_step_on_a_plant_with_rotor_inflow_damping() -> None:
+    """Issue 13: the bench's plant damps vertical motion (rotor inflow drag k_z omega per
+    rotor plus body drag, 1.5 N/(m/s)); the paper's model k/((1 + T1 s) m s^2) does not. With
+    the paper.md 3.2 weights the loop slows and overshoots (settling past 6 s; 6-11 s on the
+    bench); the weights the rig flies (rigs/paper-quad.toml [flight.overrides.altitude])
+    restore about 5 s and 0.5 m. Damping from the rig's own plant parameters."""
+    import tomllib
+    from pathlib import Path
+
+    rig = tomllib.loads((Path(__file__).parents[4] / "rigs" / "paper-quad.toml").read_text())
+    aero, rotors = rig["plant"]["aero"], rig["plant"]["rotors"]
+    model = AltitudeModel()
+    omega_hover_radps = rotors["omega_max_radps"] * math.sqrt(model.m_kg * G_MPS2 / (4.0 * rotors["thrust_max_N"]))
+    c = 4.0 * aero["rotor_drag_vertical_N_per_mps_per_radps"] * omega_hover_radps + aero["linear_drag_B_N_per_mps"][2]
+    assert c == pytest.approx(1.51, abs=0.01)
+
+    overshoot, settling, _ = _damped_step(LqiAltitude(model), model, 0.0)
+    assert (overshoot, settling) == (pytest.approx(0.41, abs=0.01), pytest.approx(4.5, abs=0.05))
+    overshoot, settling, poles = _damped_step(LqiAltitude(model), model, c)
+    assert overshoot > 0.7 and settling > 6.0
+    assert max(p.real for p in poles) == pytest.approx(-0.45, abs=0.01)
+
+    weights = rig["flight"]["overrides"]["altitude"]
+    overshoot, settling, _ = _damped_step(LqiAltitude(model, **weights), model, c)
+    assert 0.4 <= overshoot <= 0.65 and settling <= 5.0
