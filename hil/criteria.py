@@ -1,4 +1,9 @@
-"""Pass/fail criteria of a scenario, evaluated on the run's trace.
+"""Pass/fail criteria of a scenario, evaluated on a whole-run trace (batch).
+
+A run evaluates its criteria as it streams (hil/criteria_stream.py), in flat memory; this
+batch evaluation on a kept :class:`~hil.trace.Trace` is the reference the streaming one is
+tested against, and what a test can run on ``RunResult.trace``. The verdict helpers
+(:func:`result_of`, :func:`failed`) are shared by both.
 
 Metrics (all over the criterion's window, sim seconds):
 

@@ -48,7 +48,7 @@ class Moments:
         self.min = math.inf
         self.max = -math.inf
         self.max_abs = -math.inf
-        self.last: np.ndarray | None = None  #: the last finite row
+        self.last: np.ndarray | None = None  #: the last finite row, shape (1,) or (1, columns)
         self.delta_sq = 0.0  #: sum of squared changes between consecutive finite rows
         self.delta_n = 0
         self.saturated = 0  #: finite rows with a column <= lo or >= hi
@@ -73,11 +73,10 @@ class Moments:
         self.min = min(self.min, float(np.min(flat)))
         self.max = max(self.max, float(np.max(flat)))
         self.max_abs = max(self.max_abs, float(np.max(np.abs(flat))))
-        chained = flat if self.last is None else np.concatenate([self.last[None, ...] if flat.ndim == 2 else self.last, flat])
-        d = np.diff(chained, axis=0)
+        d = np.diff(flat if self.last is None else np.concatenate([self.last, flat]), axis=0)
         self.delta_sq += float(np.sum(np.square(d)))
         self.delta_n += d.size
-        self.last = flat[-1].copy() if flat.ndim == 2 else flat[-1:].copy()
+        self.last = flat[-1:].copy()
         sat = (flat <= self.lo) | (flat >= self.hi)
         self.saturated += int(np.count_nonzero(np.any(sat, axis=1) if sat.ndim == 2 else sat))
         return flat

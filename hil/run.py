@@ -227,7 +227,7 @@ async def run_flight_async(
     ``started_ns``: host monotonic instant the run was asked for (``hil run`` passes its process
     start): the timing figures then include ``start_to_tick0_s``, the wall time to tick 0.
     ``keep_trace``: keep every sample of the run's signals in ``RunResult.trace`` (the pytest
-    plugin's ``bench.signal``; 8 bytes a value, about 7 MB per flight minute). Without it the
+    plugin's ``bench.signal``; 8 bytes a value, about 6 MB per flight minute). Without it the
     bench's memory does not grow with the flight's length: the criteria stream
     (hil/criteria_stream.py)."""
     # The recorder's writer thread must not hold the GIL for the default 5 ms while the

@@ -30,7 +30,7 @@ from hil.run import run_flight
 
 scenario, duration_s, out, top = sys.argv[1], float(sys.argv[2]), Path(sys.argv[3]), int(sys.argv[4])
 if top:
-    tracemalloc.start(8)
+    tracemalloc.start(1)
 result = run_flight(None, scenario, mode=Mode.LOCKSTEP, duration_s=duration_s, out_dir=out)
 lines = []
 if top:

@@ -94,7 +94,10 @@ def flights(draw) -> dict[str, object]:
             "chunk_ticks": draw(st.integers(1, 40))}
 
 
-def fly(flight: dict[str, object], crits: list[Criterion]) -> tuple[list[CriterionResult], list[CriterionResult], TraceStream]:
+Results = list[CriterionResult]
+
+
+def fly(flight: dict[str, object], crits: list[Criterion]) -> tuple[Results, Results, TraceStream]:
     """Batch and streamed results of ``crits`` on one synthetic flight."""
     trace = Trace()
     stream = TraceStream(horizon_ns=int(flight["max_delay_ns"]) + TICK_NS, chunk_ticks=int(flight["chunk_ticks"]))
@@ -148,7 +151,8 @@ def sines(draw) -> dict[str, object]:
     ref = a * np.sin(w * t) + draw(st.floats(-5, 5))
     sig = 0.8 * a * np.sin(w * t - lag_rad) + rng.normal(0, 0.1 * a, n)
     return {"n": n, "t0_ns": 0, "truth": list(zip(sig.tolist(), ref.tolist(), strict=True)),
-            "esc": [(0.0, 0.0, 0.0)] * n, "points": [(int(k * TICK_NS), int(k * TICK_NS), float(ref[k])) for k in range(0, n, 3)],
+            "esc": [(0.0, 0.0, 0.0)] * n,
+            "points": [(int(k * TICK_NS), int(k * TICK_NS), float(ref[k])) for k in range(0, n, 3)],
             "max_delay_ns": 0, "chunk_ticks": draw(st.integers(1, 60)), "freq_hz": freq_hz}
 
 
@@ -218,9 +222,9 @@ def steps(draw) -> tuple[dict[str, object], list[Criterion]]:
               "max_delay_ns": 0, "chunk_ticks": draw(st.integers(1, 60))}
     crits = []
     for metric in ("overshoot", "settling_time", "rise_time"):
-        kw: dict[str, object] = {"name": metric, "metric": metric, "max": 100.0, "step_t_s": step_t_s,
-                                 "signal": draw(st.sampled_from(["truth.b", "tm.x", "esc.p[0]", "truth.b - truth.a"])),
-                                 "window_s": draw(st.one_of(st.none(), st.just((0.0, t[-1] * draw(st.floats(0.5, 1.0))))))}
+        window = None if draw(st.booleans()) else (0.0, float(t[-1]) * draw(st.floats(0.5, 1.0)))
+        kw: dict[str, object] = {"name": metric, "metric": metric, "max": 100.0, "step_t_s": step_t_s, "window_s": window,
+                                 "signal": draw(st.sampled_from(["truth.b", "tm.x", "esc.p[0]", "truth.b - truth.a"]))}
         kind = draw(st.sampled_from(["target", "step_size", "final"]))
         if kind == "target":
             kw["target"], kw["start"] = level + size, draw(st.one_of(st.none(), st.just(level)))
