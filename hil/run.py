@@ -381,7 +381,10 @@ async def run_flight_async(
                     note(warning)
             vt.close()
         clock_note = loop.fallback_reason or clock_note
-        stream.finish()
+        try:
+            stream.finish()
+        except Exception as exc:  # noqa: BLE001 - the verdict must not cost the log
+            note(f"bench error in the trace stream: {exc!r}")
         if stream.late_points:
             note(f"{stream.late_points} trace samples were stamped more than "
                  f"{stream.horizon_ns / 1e9:g} s before they arrived: the criteria used them late")

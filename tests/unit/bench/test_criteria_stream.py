@@ -130,7 +130,7 @@ def assert_same(batch: list[CriterionResult], streamed: list[CriterionResult]) -
                 assert b.passed == s.passed, (b, s)
 
 
-@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(flight=flights(), crits=st.lists(criteria(), min_size=1, max_size=4))
 def test_streaming_equals_batch(flight: dict[str, object], crits: list[Criterion]) -> None:
     batch, streamed, stream = fly(flight, crits)
