@@ -1,4 +1,9 @@
-"""Pass/fail criteria of a scenario, evaluated on the run's trace.
+"""Pass/fail criteria of a scenario, evaluated on a whole-run trace (batch).
+
+A run evaluates its criteria as it streams (hil/criteria_stream.py), in flat memory; this
+batch evaluation on a kept :class:`~hil.trace.Trace` is the reference the streaming one is
+tested against, and what a test can run on ``RunResult.trace``. The verdict helpers
+(:func:`result_of`, :func:`failed`) are shared by both.
 
 Metrics (all over the criterion's window, sim seconds):
 
@@ -167,13 +172,34 @@ def _phase_lag_deg(c: Criterion, trace: Trace, t_s: np.ndarray, values: np.ndarr
     return math.degrees(math.remainder(lag, 2.0 * math.pi))
 
 
+def bound_text(c: Criterion) -> str:
+    """The criterion's bounds as the summary shows them (">= 1 and <= 3")."""
+    return " and ".join(
+        s for s in (f">= {c.min:g}" if c.min is not None else "", f"<= {c.max:g}" if c.max is not None else "") if s
+    )
+
+
+def result_of(c: Criterion, value: float) -> CriterionResult:
+    """The verdict on a metric's value: NaN fails; +inf passes only with no upper bound."""
+    ok = math.isfinite(value) or (value == math.inf and c.max is None)
+    if c.max is not None and not value <= c.max:
+        ok = False
+    if c.min is not None and not value >= c.min:
+        ok = False
+    detail = "" if math.isfinite(value) else "no data in the window" if math.isnan(value) else "never settled"
+    return CriterionResult(c.name, c.signal, c.metric, value, bound_text(c), bool(ok), detail)
+
+
+def failed(c: Criterion, exc: Exception) -> CriterionResult:
+    """A criterion that could not be evaluated (an unknown signal, a missing parameter)."""
+    return CriterionResult(c.name, c.signal, c.metric, math.nan, bound_text(c), False, str(exc))
+
+
 def evaluate(criteria: list[Criterion], trace: Trace) -> list[CriterionResult]:
-    """Evaluate every criterion; an unknown signal or a NaN value fails (with a reason)."""
+    """Evaluate every criterion on the whole-run trace; an unknown signal or a NaN value fails
+    (with a reason). The reference for the streaming criteria (hil/criteria_stream.py)."""
     results: list[CriterionResult] = []
     for c in criteria:
-        bound = " and ".join(
-            s for s in (f">= {c.min:g}" if c.min is not None else "", f"<= {c.max:g}" if c.max is not None else "") if s
-        )
         try:
             t_s, values = trace.signal(c.signal)
             if c.metric == "phase_lag_deg":
@@ -189,13 +215,7 @@ def evaluate(criteria: list[Criterion], trace: Trace) -> list[CriterionResult]:
                 t_w, v_w = _window(t_s, values, c.window_s)
                 value = _metric(c, t_w, v_w)
         except (KeyError, ValueError) as exc:
-            results.append(CriterionResult(c.name, c.signal, c.metric, math.nan, bound, False, str(exc)))
+            results.append(failed(c, exc))
             continue
-        ok = math.isfinite(value) or (value == math.inf and c.max is None)
-        if c.max is not None and not value <= c.max:
-            ok = False
-        if c.min is not None and not value >= c.min:
-            ok = False
-        detail = "" if math.isfinite(value) else "no data in the window" if math.isnan(value) else "never settled"
-        results.append(CriterionResult(c.name, c.signal, c.metric, value, bound, bool(ok), detail))
+        results.append(result_of(c, value))
     return results

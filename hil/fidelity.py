@@ -130,7 +130,8 @@ async def _fly(scenario_name: str, seed: int, out_dir: Path, drop_payload: bool 
     for attempt in range(2):
         try:
             return await asyncio.wait_for(
-                run_flight_async(rig, scenario, scenario_source=source, mode=Mode.LOCKSTEP, seed=seed, out_dir=out_dir),
+                run_flight_async(rig, scenario, scenario_source=source, mode=Mode.LOCKSTEP, seed=seed, out_dir=out_dir,
+                                 keep_trace=True),
                 RUN_TIMEOUT_S,
             )
         except TimeoutError:

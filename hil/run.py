@@ -28,18 +28,21 @@ from hil import __version__, clock
 from hil.attach import follow_device_rates, open_attached, refuse_lockstep, resolve_attachments
 from hil.bench import BootError, Clock, EndReason, Mode, TickLoop
 from hil.config import ConfigError, load_toml
-from hil.criteria import CriterionResult, evaluate
+from hil.criteria import CriterionResult
+from hil.criteria_stream import CriteriaStream
 from hil.devices import DeviceSet
 from hil.flightproc import FlightProcess, expand_command
 from hil.record.process import ProcessRecorder
 from hil.rig import Rig, load_rig
 from hil.rundir import make_run_dir
-from hil.runlog import RunLogger
+from hil.runlog import STAMP_MAX_AGE_NS, RunLogger
 from hil.scenario import Scenario, apply_to_rig, load_scenario
 from hil.scenario_runner import ScenarioRunner
 from hil.stress import CpuHog
-from hil.timing import REALTIME_MAX_LATE_US, StreamingStats, compute_samples_us, realtime_held
+from hil.signal_stream import Held
+from hil.timing import REALTIME_MAX_LATE_US, StreamingStats, realtime_held, scaled_compute_us
 from hil.trace import Trace
+from hil.trace_stream import TraceSink, TraceStream, TraceTee
 from hil.transport.base import Port
 from hil.transport.pty import PtyPort
 from hil.vtime.preload import Fallback
@@ -61,6 +64,7 @@ class RunResult:
     timing: dict[str, float]
     counters: dict[str, dict[str, int]]
     message: str = ""
+    #: the whole-run trace, when the run was asked to keep it (``keep_trace``)
     trace: Trace | None = None
     recorded: dict[str, int] = field(default_factory=dict)
     dropped: int = 0
@@ -124,10 +128,13 @@ def _percentiles(prefix: str, values: StreamingStats | np.ndarray, scale: float 
     }
 
 
-def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None, cpu_scale: float = 1.0) -> dict[str, float]:
+def _timing_summary(loop: TickLoop, tick_ns: int, telemetry_compute_us: StreamingStats | None = None,
+                    cpu_scale: float = 1.0) -> dict[str, float]:
     """The run's timing figures. ``latency_*``, ``period_*`` and ``fc_compute_*`` are on the
     flight code's clock: sim time with virtual time (deterministic, what budgets judge), the
-    host clock otherwise. ``host_latency_*`` and ``bench_cost_*`` are host figures always."""
+    host clock otherwise. ``host_latency_*`` and ``bench_cost_*`` are host figures always.
+    ``telemetry_compute_us``: the flight code's own compute figure held on the tick grid
+    (streamed), for runs without the per-sample CPU measurement."""
     st = loop.stats
     wall_s = max((st.wall_end_ns - st.wall_start_ns) / 1e9, 1e-9)
     sim_s = st.ticks * tick_ns / 1e9
@@ -157,13 +164,10 @@ def _timing_summary(loop: TickLoop, tick_ns: int, trace: Trace | None = None, cp
                 "period_jitter_p99_us": arrivals.jitter.percentile(99) / 1e3}
     if virtual:
         out["boot_sim_s"] = st.boot_sim_ns / 1e9
-    telemetry_compute: np.ndarray | None = None
-    if trace is not None:
-        with contextlib.suppress(KeyError):
-            telemetry_compute = trace.signal("tm.compute_last_us")[1]
-    # one rule with `hil timing` (hil/timing.py), on the same per-sample values
-    fc_cpu_us = np.frombuffer(st.fc_cpu_ns, dtype=np.int64) / 1e3 if virtual else None
-    out |= _percentiles("fc_compute", compute_samples_us(fc_cpu_us, telemetry_compute, cpu_scale))
+    # one rule with `hil timing` (hil.timing.compute_samples_us): the per-sample CPU
+    # measurement when there is one, on the same values; else the flight code's own figure
+    cpu = scaled_compute_us(np.frombuffer(st.fc_cpu_ns, dtype=np.int64) / 1e3, cpu_scale) if virtual else np.zeros(0)
+    out |= _percentiles("fc_compute", cpu if cpu.size or telemetry_compute_us is None else telemetry_compute_us)
     if st.lateness_ns:
         out |= _percentiles("lateness", st.lateness_ns, 1e-3)
     return out
@@ -180,6 +184,13 @@ def realtime_criterion(loop: TickLoop, tick_ns: int) -> CriterionResult | None:
     return CriterionResult("realtime held", "timing.lateness_us", "p99 / max", verdict.max_us,
                            f"p99 <= {tick_ns / 1e3:g}, max <= {REALTIME_MAX_LATE_US:g}", verdict.held,
                            "" if verdict.held else verdict.text)
+
+
+def _held_stats(stream: TraceStream, name: str) -> StreamingStats:
+    """Streamed statistics of the irregular series ``name`` held on the tick grid."""
+    stats, held = StreamingStats(), Held(name)
+    stream.subscribe(lambda chunk: stats.extend(held.block(chunk)[1]))
+    return stats
 
 
 def default_log_path(out_dir: Path, rig: Rig, scenario: Scenario, seed: int) -> Path:
@@ -209,6 +220,7 @@ async def run_flight_async(
     virtual_time: bool | None = None,
     attach: Mapping[str, str] | None = None,
     started_ns: int | None = None,
+    keep_trace: bool = False,
 ) -> RunResult:
     """Run one flight (see module docstring). Never raises for run-time failures; a scenario
     the rig refuses raises :class:`ConfigError` before anything is created.
@@ -217,7 +229,11 @@ async def run_flight_async(
     ``[flight] virtual_time``, on by default); False runs lockstep on the host clock.
     ``attach``: port -> device or URL over the rig's ``[ports]`` (hil/attach.py); realtime only.
     ``started_ns``: host monotonic instant the run was asked for (``hil run`` passes its process
-    start): the timing figures then include ``start_to_tick0_s``, the wall time to tick 0."""
+    start): the timing figures then include ``start_to_tick0_s``, the wall time to tick 0.
+    ``keep_trace``: keep every sample of the run's signals in ``RunResult.trace`` (the pytest
+    plugin's ``bench.signal``; 8 bytes a value, about 6 MB per flight minute). Without it the
+    bench's memory does not grow with the flight's length: the criteria stream
+    (hil/criteria_stream.py)."""
     # The recorder's writer thread must not hold the GIL for the default 5 ms while the
     # tick waits on a pty (hil/record measurements: wake-ups 2.2 ms late otherwise).
     sys.setswitchinterval(SWITCH_INTERVAL_S)
@@ -261,9 +277,15 @@ async def run_flight_async(
             ],
         )
         recorder.start()
-    trace = Trace()
-    logger = RunLogger(recorder, trace, devices, ports, rig, run_start_unix_ns)
+    # The criteria read the run's signals as they stream (a delay line longer than the oldest
+    # stamp a telemetry frame may carry), so no sample is kept for the whole run unless asked.
+    stream = TraceStream(horizon_ns=STAMP_MAX_AGE_NS + 100 * rig.tick_ns)
+    trace = Trace() if keep_trace else None
+    sink: TraceSink = stream if trace is None else TraceTee(stream, trace)
+    logger = RunLogger(recorder, sink, devices, ports, rig, run_start_unix_ns)
     runner.log_event = logger.event
+    criteria_stream = CriteriaStream(scenario.criteria, stream)
+    telemetry_compute_us = _held_stats(stream, "tm.compute_last_us")
 
     flight_config = write_flight_config(rig, scenario, ports, run_dir)
     argv = expand_command(rig.flight.command, config=flight_config)
@@ -363,10 +385,17 @@ async def run_flight_async(
                     note(warning)
             vt.close()
         clock_note = loop.fallback_reason or clock_note
-        timing = _timing_summary(loop, rig.tick_ns, trace, rig.flight.cpu_scale)
+        try:
+            stream.finish()
+        except Exception as exc:  # noqa: BLE001 - the verdict must not cost the log
+            note(f"bench error in the trace stream: {exc!r}")
+        if stream.late_points:
+            note(f"{stream.late_points} trace samples were stamped more than "
+                 f"{stream.horizon_ns / 1e9:g} s before they arrived: the criteria used them late")
+        timing = _timing_summary(loop, rig.tick_ns, telemetry_compute_us, rig.flight.cpu_scale)
         if started_ns is not None and loop.stats.wall_start_ns:
             timing["start_to_tick0_s"] = (loop.stats.wall_start_ns - started_ns) / 1e9
-        criteria = evaluate(scenario.criteria, trace) if end is EndReason.COMPLETED else []
+        criteria = criteria_stream.results() if end is EndReason.COMPLETED else []
         timing_criteria = runner.timing_criteria(timing, logger)
         criteria += timing_criteria
         held = realtime_criterion(loop, rig.tick_ns) if mode is Mode.REALTIME and end is EndReason.COMPLETED else None

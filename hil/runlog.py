@@ -3,7 +3,8 @@
 The tick loop calls ``after_tick`` once per tick; devices push their events through
 ``on_event``; ports push raw bytes through their wire taps; the flight process pushes its
 output lines through ``flight_line``. Everything goes to the recorder's queue (encoded and
-written on its own thread) and, for signals the criteria use, to the in-memory trace.
+written on its own thread) and, for signals the criteria use, to the trace (the streaming
+criteria's feed, hil/trace_stream.py, and the whole-run trace when the caller keeps one).
 """
 
 from __future__ import annotations
@@ -19,7 +20,6 @@ from typing import TYPE_CHECKING, Any
 from emulators.base import DeviceEvent
 from hil import clock
 from hil.telemetry import TelemetryDecoder
-from hil.trace import Trace
 from hil.transport.base import WireRecord
 
 if TYPE_CHECKING:
@@ -29,12 +29,16 @@ if TYPE_CHECKING:
     from hil.record import Recorder
     from hil.record.process import ProcessRecorder
     from hil.rig import Rig
+    from hil.trace_stream import TraceSink
     from hil.transport.base import Port
 
 RAD2DEG = 180.0 / math.pi
 #: events whose whole content is already on the wire tap (raw bytes per port)
 _WIRE_ONLY_EVENTS = frozenset({"BusPirateSpi", "CommandHandled", "SpiTransfer"})
 _LOGFMT_LEVEL = re.compile(r"\blevel=(\w+)")
+#: a telemetry frame's own sample time is trusted when at most this much before its arrival
+#: (the trace stream's delay line must be longer: hil/trace_stream.py)
+STAMP_MAX_AGE_NS = 1_000_000_000
 _FOXGLOVE_LEVEL = {"DEBUG": 1, "INFO": 2, "WARN": 3, "WARNING": 3, "ERROR": 4, "FATAL": 5, "CRITICAL": 5}
 
 
@@ -62,7 +66,7 @@ class RunLogger:
     def __init__(
         self,
         recorder: Recorder | ProcessRecorder | None,
-        trace: Trace,
+        trace: TraceSink,
         devices: DeviceSet,
         ports: Mapping[str, Port],
         rig: Rig,
@@ -115,7 +119,7 @@ class RunLogger:
         t_trace = t_ns
         if isinstance(t_sample, float):
             t_sample_ns = round(t_sample * 1e9)
-            if 0 <= t_ns - t_sample_ns < 1_000_000_000:
+            if 0 <= t_ns - t_sample_ns < STAMP_MAX_AGE_NS:
                 t_trace = t_sample_ns
         for key, value in frame.items():
             if isinstance(value, (int, float)) and not isinstance(value, bool):

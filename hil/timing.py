@@ -71,12 +71,13 @@ class StreamingStats:
         for v in values:
             self.append(v)
 
-    def append(self, value: float) -> None:
+    def append(self, value: float, count: int = 1) -> None:
+        """Add ``value`` (``count`` times); non-finite values are left out."""
         v = float(value)
         if not math.isfinite(v):
             return
-        self.n += 1
-        self.total += v
+        self.n += count
+        self.total += v * count
         if v < self.min:
             self.min = v
         if v > self.max:
@@ -86,7 +87,14 @@ class StreamingStats:
         else:  # bins are +-(1 + k) for |v| in [(1+r)^k, (1+r)^(k+1)); k may be negative (|v| < 1)
             k = math.floor(math.log(abs(v)) / self._LOG_STEP)
             key = (k + (1 << 40)) if v > 0 else -(k + (1 << 40))
-        self._bins[key] = self._bins.get(key, 0) + 1
+        self._bins[key] = self._bins.get(key, 0) + count
+
+    def extend(self, values: np.ndarray) -> None:
+        """Add a block of values (a held signal repeats each: one bin update per distinct value)."""
+        v = np.asarray(values, dtype=float)
+        distinct, counts = np.unique(v[np.isfinite(v)], return_counts=True)
+        for value, count in zip(distinct.tolist(), counts.tolist(), strict=True):
+            self.append(value, count)
 
     def __len__(self) -> int:
         return self.n

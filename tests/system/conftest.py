@@ -31,6 +31,7 @@ def fly(tmp_path: Path):
         source = rig_obj.scenario_path(scenario)
         kwargs.setdefault("mode", Mode.LOCKSTEP)
         kwargs.setdefault("out_dir", tmp_path)
+        kwargs.setdefault("keep_trace", True)  # tests look at the run's signals afterwards
         return await run_flight_async(rig_obj, load_scenario(source), scenario_source=source, **kwargs)
 
     return _fly

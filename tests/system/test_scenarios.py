@@ -3,6 +3,7 @@ criteria; the paper's literal attitude weights fail on control activity as desig
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,9 @@ import pytest
 
 from hil.bench import EndReason
 from hil.config import SCENARIOS_DIR
+from hil.criteria import evaluate
+from hil.run import RunResult
+from hil.scenario import load_scenario
 from hil.record import message_counts, read_metadata
 from hil.record.validate import validate
 from tests.system.conftest import explain
@@ -22,11 +26,25 @@ EXPECTED_TO_FAIL = {"paper-literal-weights": {"control activity: sample-to-sampl
 SHIPPED = sorted(p.stem for p in SCENARIOS_DIR.glob("*.toml"))
 
 
+def assert_streamed_as_batch(result: RunResult, name: str) -> None:
+    """The run's verdicts (streamed, hil/criteria_stream.py) are the batch criteria's on the
+    whole-run trace the run kept (hil/criteria.py)."""
+    scenario = load_scenario(SCENARIOS_DIR / f"{name}.toml")
+    assert result.trace is not None
+    batch = evaluate(scenario.criteria, result.trace)
+    streamed = result.criteria[: len(batch)]
+    for b, s in zip(batch, streamed, strict=True):
+        assert (b.name, b.passed, b.detail) == (s.name, s.passed, s.detail), (b, s)
+        assert math.isclose(b.value, s.value, rel_tol=1e-9, abs_tol=1e-9) or b.value == s.value or (
+            math.isnan(b.value) and math.isnan(s.value)), (b, s)
+
+
 @pytest.mark.parametrize("name", [s for s in SHIPPED if s not in EXPECTED_TO_FAIL])
 async def test_shipped_scenario_passes(fly, name: str) -> None:
     result = await fly(name)
     assert result.end_reason is EndReason.COMPLETED, explain(result)
     assert result.passed, explain(result)
+    assert_streamed_as_batch(result, name)
     assert result.timing["barrier_misses"] == 0, explain(result)
     assert result.log_path is not None and result.log_path.exists()
     meta = read_metadata(result.log_path)
@@ -42,6 +60,7 @@ async def test_demonstration_fails_on_control_activity(fly, name: str) -> None:
     failed = {c.name for c in result.criteria if not c.passed}
     assert EXPECTED_TO_FAIL[name] <= failed, explain(result)
     assert not result.passed
+    assert_streamed_as_batch(result, name)
 
 
 async def test_recorded_file_reads_back_independently(fly, tmp_path: Path) -> None:
@@ -168,7 +187,8 @@ async def test_payload_barely_changes_tracking_on_twin_runs(tmp_path: Path) -> N
     twin = scenario.model_copy(update={"events": [e for e in scenario.events if e.kind != "payload"]})
     rms = []
     for sc in (scenario, twin):
-        result = await run_flight_async(rig, sc, scenario_source=source, mode=Mode.LOCKSTEP, out_dir=tmp_path)
+        result = await run_flight_async(rig, sc, scenario_source=source, mode=Mode.LOCKSTEP, out_dir=tmp_path,
+                                        keep_trace=True)
         assert result.end_reason is EndReason.COMPLETED, explain(result)
         assert result.trace is not None
         t, err = result.trace.signal("truth.roll_deg - tm.roll_ref_deg")

@@ -85,3 +85,15 @@ def test_period_and_host_latency_from_samples() -> None:
     assert lat.sim_period.period.percentile(50) == pytest.approx(TICK_NS, rel=STREAM_RESOLUTION)
     assert lat.sim_period.jitter.max == 0
     assert lat.host_period.period.max == 2 * TICK_NS  # the miss: two periods between arrivals
+
+
+def test_extend_counts_repeated_values_as_appends() -> None:
+    """A held signal's block (each value repeated) gives what appending each sample gives."""
+    rng = np.random.default_rng(3)
+    held = np.repeat(rng.lognormal(5, 0.5, 200), 8)
+    held[::17] = math.nan
+    a, b = StreamingStats(held.tolist()), StreamingStats()
+    for block in np.array_split(held, 7):
+        b.extend(block)
+    assert (a.n, a.min, a.max) == (b.n, b.min, b.max) and a._bins == b._bins
+    assert math.isclose(a.total, b.total, rel_tol=1e-12)
