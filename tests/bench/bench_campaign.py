@@ -76,6 +76,10 @@ def main() -> int:
             # the flight's criteria; "timing:" ones judge the host's CPU time, which load may change
             values[n] = {r["case_id"]: [(c["name"], c.get("value")) for c in r.get("criteria", [])
                                         if not c["name"].startswith("timing:")] for r in run.results}
+            for r in run.results:
+                failing = [f"{c['name']} = {c.get('value')}" for c in r.get("criteria", []) if not c.get("passed")]
+                if failing:
+                    print(f"  seed {r['seed']} failed: " + "; ".join(failing), flush=True)
             print(f"workers {n}: {wall:.1f} s, {s['done']} flights ({s['passed']} passed), "
                   f"{s['done'] / wall * 3600:.0f} flights/h, cores busy {rows[-1][5]:.0%}", flush=True)
     n1, wall1 = rows[0][0], rows[0][1]
