@@ -112,8 +112,15 @@ async def test_killed_run_is_recoverable(tmp_path: Path) -> None:
         if proc.poll() is None:
             proc.kill()
     (part,) = tmp_path.glob("*.mcap.part")
-    with pytest.raises(TornRecordingError):
+    try:
         message_counts(part)
+    except TornRecordingError:
+        pass  # the usual case: the recorder child died with the bench, mid-chunk
+    else:
+        # The kernel closes a dying process's files before it sends the children their
+        # PR_SET_PDEATHSIG signal: on a loaded machine the recorder child can see its pipe
+        # close first and close the file as aborted (nothing lost), but not rename it.
+        assert read_metadata(part)["verdict"]["status"] == "aborted"
     out = tmp_path / "recovered.mcap"
     cli = subprocess.run(
         [sys.executable, "-m", "hil.cli", "recover", str(part), "--out", str(out)], cwd=ROOT, capture_output=True, text=True
