@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 from hil import clock
 from hil.devices import DeviceSet, LatencySample
 from hil.timing import LATE_US, StreamingStats
-from hil.vtime.scheduler import ShimLost, VirtualClock
+from hil.vtime.scheduler import ShimLost, VirtualClock, resolve_pending
 
 
 class Mode(enum.Enum):
@@ -169,9 +169,8 @@ class TickLoop:
             self._rt_emit = None
             self.stats.latencies_ns.append(t_host_ns - t_emit)
             self.devices.note_latency(LatencySample(t_sample, t_emit, t_host_ns, lateness_ns=late))
-            answer = self._rt_answer
-            if answer is not None and not answer.done():
-                answer.set_result(None)
+            if self._rt_answer is not None:
+                resolve_pending(self._rt_answer)
 
     # -- boot ---------------------------------------------------------------------------------------
     async def boot(self) -> None:
@@ -409,17 +408,12 @@ class TickLoop:
         if remaining_s <= 0 or self._rt_emit is None:
             return
         answer = self._rt_answer = loop.create_future()
-        handle = loop.call_later(remaining_s, _resolve_none, answer)
+        handle = loop.call_later(remaining_s, resolve_pending, answer)
         try:
             await answer
         finally:
             handle.cancel()
             self._rt_answer = None
-
-
-def _resolve_none(fut: asyncio.Future[None]) -> None:
-    if not fut.done():
-        fut.set_result(None)
 
 
 def _time_out(fut: asyncio.Future[int]) -> None:

@@ -169,7 +169,7 @@ class Maestro(ByteDevice):
         Targets a tick): executed at once, with the same effects as byte by byte through the
         table. False (nothing done) for anything else: that goes through the table."""
         code = data[0] if data else 0
-        if code < 0x80 or code == Prefix.POLOLU or code == Prefix.MINI_SSC or code not in _COMMAND_CODES:
+        if code not in _COMMAND_CODES:  # data bytes, the Pololu and Mini SSC prefixes too
             return False
         cmd = Command(code)
         n = DATA_LENGTH[cmd]

@@ -285,8 +285,7 @@ class ProcessRecorder:
         except OSError:
             self._child_gone(in_backlog=True)
         finally:
-            if self._cmd_fd >= 0:
-                os.set_blocking(self._cmd_fd, False)
+            os.set_blocking(self._cmd_fd, False)
 
     def _child_gone(self, *, in_backlog: bool = False) -> None:
         """The pipe broke (the child died): the pending batches (and this one, unless it is

@@ -160,7 +160,7 @@ class VirtualClock:
                 return False
             waiter = loop.create_future()
             self._waiter = waiter
-            handle = loop.call_at(give_up, _resolve, waiter)
+            handle = loop.call_at(give_up, resolve_pending, waiter)
             try:
                 await waiter
             finally:
@@ -326,10 +326,10 @@ class VirtualClock:
                 stall_at = loop.time() + self.stall_warn_s
             waiter = loop.create_future()
             self._waiter = waiter
-            handle = None if reported else loop.call_at(stall_at, _resolve, waiter)
+            handle = None if reported else loop.call_at(stall_at, resolve_pending, waiter)
             # a thread between its futex-wait notification and its sleep: look again after a
             # short, growing pause (the only wait here that is not an event)
-            recheck = loop.call_later(settle_s, _resolve, waiter) if self._settling else None
+            recheck = loop.call_later(settle_s, resolve_pending, waiter) if self._settling else None
             settle_s = min(settle_s * 2, SETTLE_MAX_S) if self._settling else SETTLE_FIRST_S
             try:
                 await waiter
@@ -362,6 +362,7 @@ class VirtualClock:
             self._loop.remove_reader(self.ctl.notify_fd)
 
 
-def _resolve(fut: asyncio.Future[None]) -> None:
+def resolve_pending(fut: asyncio.Future[None]) -> None:
+    """Resolve ``fut`` with None unless it is already done (a timer or wake-up callback)."""
     if not fut.done():
         fut.set_result(None)
