@@ -103,19 +103,21 @@ class ConditioningParams:
 
 
 def baro_offset_V_for_field(
-    p_field_Pa: float, gain: float, pin_V: float = 4.0, baro: Mpx5100apParams = Mpx5100apParams()
+    p_field_Pa: float, gain: float, pin_V: float = 2.5, baro: Mpx5100apParams = Mpx5100apParams()
 ) -> float:
     """The ``offset_V`` that puts field pressure ``p_field_Pa`` at ``pin_V`` on the ADC pin.
 
     With gain 16 the 5 V ADC range spans 0.3125 V of sensor output = 6.9 kPa, about 580 m
     near sea level: a fixed offset cannot cover fields from sea level to 2 km, so the rig
-    picks it for its field. 4.0 V leaves ~470 m of climb and ~115 m (1.4 kPa) below.
+    picks it for its field. 2.5 V, mid-scale, leaves +-3.47 kPa (~290 m) either way: the
+    MPX5100AP's unit error alone is +-2.5 kPa (datasheet), so a field level nearer a rail
+    pins some units at a rail on the ground (4.0 V did, for about 1 unit in 5).
     """
     v_field = baro.supply_V * (baro.gain_per_kPa * p_field_Pa / 1000.0 + baro.offset)
     return v_field - pin_V / gain
 
 
-#: The default rig's CH0 stage: x16, sea-level field at 4.0 V, 100 Hz anti-alias RC.
+#: The default rig's CH0 stage: x16, sea-level field at 2.5 V (mid-scale), 100 Hz anti-alias RC.
 BARO_X16_SEA_LEVEL = ConditioningParams(
     gain=16.0, offset_V=baro_offset_V_for_field(P_SEA_LEVEL_PA, 16.0), rc_cutoff_Hz=100.0
 )

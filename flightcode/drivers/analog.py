@@ -8,9 +8,10 @@ interim chain of the ADC notes, to be aligned with docs/analog-chain.md):
 * MPX5100AP (protocols.md 3): ``v_sensor = supply_V (k_per_kPa P_kPa - offset_ratio)`` with
   k_per_kPa = 0.009, offset_ratio = 0.095, supply_V = 5 V; then the offset-and-gain stage
   ``v_adc = gain (v_sensor - offset_V) + ref_V`` (gain 16: 27.1 Pa / 16 = 1.7 Pa, i.e.
-  0.14 m per code near sea level, paper.md 3.4). Default offset_V = 3.834625 V puts a
-  sea-level field (101.325 kPa) at 4.0 V on the ADC pin, as the bench's default rig does:
-  95.8..102.7 kPa fit into 0..5 V, about 470 m of climb and 115 m below the field.
+  0.14 m per code near sea level, paper.md 3.4). Default offset_V = 3.928375 V puts a
+  sea-level field (101.325 kPa) at 2.5 V (mid-scale) on the ADC pin, as the bench's default
+  rig does: 97.85..104.80 kPa fit into 0..5 V, about 290 m either way, room for the
+  sensor's +-2.5 kPa unit error.
 * Altitude: ISA troposphere (U.S. Standard Atmosphere 1976 layer 0),
   ``h(P) = T0/L (1 - (P/101325)^(R L / g0 M))``, relative to the pressure averaged at boot:
   ``z = h(P) - h(P_boot)`` (m, positive up).
@@ -54,7 +55,7 @@ class BaroChainParams:
     k_per_kPa: float = 0.009
     offset_ratio: float = 0.095
     gain: float = 16.0
-    offset_V: float = 3.834625  # 5 V x (0.009 x 101.325 - 0.095) - 4.0 V / 16
+    offset_V: float = 3.928375  # 5 V x (0.009 x 101.325 - 0.095) - 2.5 V / 16
     ref_V: float = 0.0
     zero_average_s: float = 1.0
 

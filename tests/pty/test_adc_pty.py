@@ -34,8 +34,8 @@ pytestmark = pytest.mark.pty
 P_FIELD_PA = 100_000.0
 REST = (0.0, 0.0, -9.80665)
 #: The quiet default rig (no unit errors, no noise) at 100 kPa, level, at rest:
-#: CH0 x16 stage -> 4.0 V + 16 * 0.045 * (100 - 101.325) V; CH1-3: 1.65, 1.65, 1.98 V.
-CODES = [2495, 1351, 1351, 1622]
+#: CH0 x16 stage -> 2.5 V + 16 * 0.045 * (100 - 101.325) V; CH1-3: 1.65, 1.65, 1.98 V.
+CODES = [1266, 1351, 1351, 1622]
 
 
 def quiet_chain() -> tuple[Mcp3204, AnalogFrontEnd]:

@@ -21,7 +21,7 @@ MPS2_PER_CODE = 5.0 / 4096 / 0.33 * G0_MPS2
 
 @settings(deadline=None, max_examples=100)
 @given(
-    st.floats(95_800.0, 102_700.0),
+    st.floats(97_900.0, 104_700.0),
     st.lists(st.floats(-2.5 * G0_MPS2, 2.5 * G0_MPS2), min_size=3, max_size=3),
 )
 def test_flight_code_recovers_the_plant_values(p_Pa: float, f_B: list[float]) -> None:

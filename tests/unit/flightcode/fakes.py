@@ -501,7 +501,7 @@ class FakeWorld:
             h = self.FIELD_ALT_M + self.plant.z_m - wash_m + self.baro_offset_m
             p_kpa = 101.325 * (1.0 - 2.25577e-5 * h) ** 5.25588
             v = 5.0 * (0.009 * p_kpa - 0.095)
-            v_adc = 16.0 * (v - 3.834625) + self.rng.normal(0.0, 0.0005)
+            v_adc = 16.0 * (v - 3.928375) + self.rng.normal(0.0, 0.0005)
         else:
             # ADXL335 flat, component side up: sensor (X, Y, Z) = (x_B, -y_B, -z_B).
             f = self._specific_force_B()[channel - 1] * (1.0 if channel == 1 else -1.0)

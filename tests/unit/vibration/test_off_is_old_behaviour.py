@@ -20,7 +20,7 @@ def _with_vibration(rig: Rig, enabled: bool) -> Rig:
 
 def test_vibration_off_reproduces_the_sensor_outputs_from_before_the_model() -> None:
     golden = json.loads(open_loop.GOLDEN.read_text())
-    got = open_loop.run(_with_vibration(load_rig(), False))
+    got = open_loop.run(open_loop.as_recorded(_with_vibration(load_rig(), False)))
     for key in ("t_ns", "volts", "acc", "rate", "h_m"):
         np.testing.assert_allclose(np.array(got[key]), np.array(golden[key]), rtol=1e-12, atol=1e-12, err_msg=key)
 
@@ -28,7 +28,7 @@ def test_vibration_off_reproduces_the_sensor_outputs_from_before_the_model() -> 
 def test_vibration_on_changes_only_what_the_sensors_read() -> None:
     """The default rig (vibration on): same flight (truth height), different readings."""
     golden = json.loads(open_loop.GOLDEN.read_text())
-    got = open_loop.run(load_rig())
+    got = open_loop.run(open_loop.as_recorded(load_rig()))
     assert got["h_m"] == golden["h_m"]
     d_acc = np.abs(np.array(got["acc"]) - np.array(golden["acc"]))
     d_volts = np.abs(np.array(got["volts"]) - np.array(golden["volts"]))
