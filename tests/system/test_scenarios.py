@@ -196,3 +196,18 @@ async def test_payload_barely_changes_tracking_on_twin_runs(tmp_path: Path) -> N
         rms.append(float(np.sqrt(np.mean(np.square(err[window])))))
     change_pct = 100.0 * (rms[0] / rms[1] - 1.0)
     assert abs(change_pct) <= 15.0, (rms, change_pct)
+
+
+async def test_unrecorded_run_judges_as_the_recorded_one(fly) -> None:
+    """``--no-record`` must not change a verdict: the telemetry criteria (tm.*) still read
+    the flight code's frames (they used to be decoded only on the recorder's wire tap)."""
+    recorded = await fly("hover", duration_s=8.0)
+    bare = await fly("hover", duration_s=8.0, record=False)
+    assert bare.log_path is None
+    assert any(c.signal.startswith("tm.") for c in recorded.criteria)
+    assert [(c.name, c.signal, c.passed, c.detail) for c in bare.criteria] == [
+        (c.name, c.signal, c.passed, c.detail) for c in recorded.criteria]
+    for a, b in zip(bare.criteria, recorded.criteria, strict=True):
+        if a.signal.startswith("timing."):
+            continue  # host CPU times differ from run to run
+        assert a.value == b.value or (math.isnan(a.value) and math.isnan(b.value)), (a, b)
