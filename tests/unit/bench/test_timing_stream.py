@@ -6,7 +6,6 @@ A memory measurement with a generous bound (tracemalloc), not a timed assertion.
 from __future__ import annotations
 
 import math
-import tracemalloc
 
 import numpy as np
 import pytest
@@ -14,6 +13,7 @@ import pytest
 from hil.bench import TickStats
 from hil.devices import LatencySample
 from hil.timing import STREAM_RESOLUTION, LatencyStats, StreamingStats
+from tests.unit.bench.traced import traced
 
 TICK_NS = 2_500_000
 
@@ -36,14 +36,7 @@ def _feed(ticks: int, seed: int = 1) -> tuple[TickStats, LatencyStats]:
 
 
 def _traced_bytes(ticks: int) -> int:
-    tracemalloc.start()
-    try:
-        keep = _feed(ticks)
-        size, _ = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
-    del keep
-    return size
+    return traced(lambda: _feed(ticks))[1]
 
 
 def test_memory_of_a_10_minute_flight_is_that_of_a_10_s_one() -> None:

@@ -4,12 +4,12 @@ bound (tracemalloc), not a timed assertion."""
 
 from __future__ import annotations
 
-import tracemalloc
 
 import numpy as np
 import pytest
 
 from hil.trace import Trace
+from tests.unit.bench.traced import traced
 
 WIDTHS = {"a": 1, "b": 3, "c": 4}  # 8 columns
 
@@ -24,12 +24,7 @@ def _rows(n: int) -> Trace:
 
 def test_a_row_costs_about_its_values() -> None:
     n = 50_000
-    tracemalloc.start()
-    try:
-        tr = _rows(n)
-        size, _ = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
+    tr, size = traced(lambda: _rows(n))
     assert size < 1.5 * n * (8 * 8 + 8), size  # tuples of floats took ~4x this
     assert tr.signal("g.b", grid="g")[1].shape == (n, 3)
 
