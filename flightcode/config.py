@@ -118,6 +118,9 @@ class VehicleParams:
     F_max_N: float = 20.6
     kq_over_kt_m: float = 0.016
     m_kg: float = 1.1
+    #: the mixer's differential: "thrust" (exact inverse of F = F_max d^2) or "throttle"
+    #: (linear in throttle, sized at hover: torque gain d / d_h); flightcode/control/mixer.py
+    mixer: Literal["thrust", "throttle"] = "throttle"
 
 
 @dataclass(frozen=True)

@@ -135,7 +135,7 @@ class FlightLoop:
         self.kf = AltitudeKF(self.model, T_s, kf.q_a, kf.q_d, kf.q_b, kf.r_baro_m2, kf.r_acc, kf.r_rest_vz,
                              kf.baro_gate_chi2, kf.baro_gate_timeout_s)
         self.plausible = AdcPlausibility(cfg.plausibility)
-        self.mixer = Mixer(v.frame, v.arm_m, v.F_max_N / 4.0, v.kq_over_kt_m)
+        self.mixer = Mixer(v.frame, v.arm_m, v.F_max_N / 4.0, v.kq_over_kt_m, v.mixer, self.model.d_h)
         self.analog = AnalogChain(cfg.adc.vref_V, cfg.adc.baro, cfg.adc.accel)
         self.baro_ref = BaroReference(int(cfg.adc.baro.zero_average_s * 1e9))
         self.accel_zero = AccelRestOffset()
@@ -423,10 +423,11 @@ class FlightLoop:
         tau_applied = (0.0, 0.0, 0.0)
         if policy is MotorPolicy.CONTROL:
             mix = self.mixer.mix(collective, (tau_roll, tau_pitch, tau_yaw))
-            tau_applied = mix.applied_tau_Nm
-            self.roll_ctl.set_applied(tau_applied[0])
-            self.pitch_ctl.set_applied(tau_applied[1])
-            self.yaw_ctl.set_applied(tau_applied[2])
+            tau_applied = mix.applied_tau_Nm  # N m on the airframe (telemetry)
+            command = mix.applied_command_Nm  # the same in the controllers' units
+            self.roll_ctl.set_applied(command[0])
+            self.pitch_ctl.set_applied(command[1])
+            self.yaw_ctl.set_applied(command[2])
             pulses = dev.esc.pulses_from_throttle(mix.throttle)
             saturated = mix.saturated
             self._collective_applied = mix.applied_collective_throttle

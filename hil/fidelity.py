@@ -92,14 +92,14 @@ NOTES = [
     "* Fig. 8: the twins fly in the same air sample for sample. Until issue 13 they did not: the",
     "  Dryden noise was redrawn whenever the height crossed a 5 % band, so the twins parted",
     "  0.36 s after the payload's sag began and the row compared two turbulence draws",
-    "  (5.4-31.9 %). What the row measures now is the vehicle: with +300 g the rotors turn about",
-    "  13 % faster, and the rotor aerodynamics' moments (blade flapping, hub drag, inflow drag:",
-    "  rotor speed x air speed) grow with them, in turbulence and from the vehicle's own motion.",
-    "  Attitude gains do not move the ratio (a stiffer loop lowers both RMS, not their ratio),",
-    "  and the bound (the scenario's) stays: on this plant the paper's \"almost completely",
-    "  insensitive\" does not hold to +-15 %. docs/aerodynamics.md section 4 has the",
-    "  measurements (plant-truth moments, the twins without rotor aerodynamics, in calm air,",
-    "  with a stiffer attitude loop).",
+    "  (5.4-31.9 %). With +300 g the rotors turn about 13 % faster, and the rotor aerodynamics'",
+    "  moments (blade flapping, hub drag, inflow drag: rotor speed x air speed) grow with them.",
+    "  The flight code's mixer is linear in throttle around hover, as the PWM mixers of the",
+    "  paper's era were and as paper.md 2.7's payload model has it (torque gain x1.128), so its",
+    "  authority grows with the collective the payload needs, and the tracking RMS changes by",
+    "  0.2-6.2 %. With a mixer that inverts the thrust curve (`[vehicle] mixer = \"thrust\"`,",
+    "  constant torque gain) it was 14.7-22.2 %: the paper's insensitivity needs both the memory",
+    "  controller and a torque gain that follows the thrust. docs/aerodynamics.md section 4.1.",
 ]
 
 

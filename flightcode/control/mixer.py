@@ -24,6 +24,20 @@ Saturation (all in thrust, per-motor bounds [0, F_max_motor]):
    scaling roll/pitch down only if their spread exceeds the thrust range, then give yaw the
    largest fraction that fits at that collective.
 
+Differential (``differential``):
+
+* ``"thrust"``: torques are mixed in thrust and the throttles are the exact inverse of
+  F = F_max d^2, so a commanded N m is applied at any collective;
+* ``"throttle"``: the differential is linear in throttle around the collective, sized at the
+  design hover throttle d_h, as the PWM mixers of the paper's era were
+  (d_i = d_c + dd_i). Then pairs (d_c + dd)^2 - (d_c - dd)^2 = 4 d_c dd: the torque applied
+  per N m commanded is d_c / d_h. A payload that moves hover up the thrust curve raises the
+  torque gain with the thrust it needs (paper.md 2.7's payload model: x1.128 for +300 g).
+  Implemented as the request scaled by d_c / d_h before the thrust-space mix: the first-order
+  part, exact on one axis. A PWM mixer's dd^2 terms are left out: < 0.2 % of hover thrust on
+  the collective, and cross-couplings when axes combine (11 mN m at 0.19 N m of pitch with
+  0.02 N m of yaw at d = 0.5; flight torques are a fifth of that).
+
 The collective may shift up or down (at zero collective a roll/pitch request lifts it): the
 mode logic keeps the attitude loops inactive while landed, so a disarmed vehicle requests
 zero torque and gets zero thrust. The applied torque is computed back from the final thrusts.
@@ -59,12 +73,15 @@ class MixResult:
     applied_tau_Nm: (roll, pitch, yaw) torque the clipped thrusts produce, N m, FRD.
     saturated: True if the request was altered (yaw cut, collective shifted or roll/pitch scaled).
     applied_collective_throttle: the collective the thrusts produce, sqrt(sum F / (4 F_max_motor)).
+    applied_command_Nm: the applied torque in the controllers' units: ``applied_tau_Nm``
+        divided by the torque gain (the same numbers for the ``"thrust"`` differential).
     """
 
     throttle: tuple[float, float, float, float]
     applied_tau_Nm: tuple[float, float, float]
     saturated: bool
     applied_collective_throttle: float = 0.0
+    applied_command_Nm: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 def motor_layout(frame: Frame, arm_m: float) -> tuple[tuple[float, float, int], ...]:
@@ -83,6 +100,8 @@ class Mixer:
         arm_m: centre-to-motor distance, m.
         F_max_motor_N: thrust of one motor at full throttle, N (20.6 N / 4).
         kq_over_kt_m: reaction-torque to thrust ratio of a prop, m.
+        differential: ``"thrust"`` or ``"throttle"`` (module docstring).
+        hover_throttle: d_h, unit throttle, the ``"throttle"`` differential's design point.
     """
 
     def __init__(
@@ -91,7 +110,15 @@ class Mixer:
         arm_m: float = 0.25,
         F_max_motor_N: float = 5.15,
         kq_over_kt_m: float = 0.016,
+        differential: str = "thrust",
+        hover_throttle: float = 0.5,
     ) -> None:
+        if differential not in ("thrust", "throttle"):
+            raise ValueError(f"differential must be 'thrust' or 'throttle', got {differential!r}")
+        if not (0.0 < hover_throttle < 1.0):
+            raise ValueError(f"hover_throttle must be in (0, 1), got {hover_throttle}")
+        #: 1 / d_h for the "throttle" differential; None mixes in thrust.
+        self._per_hover: float | None = 1.0 / hover_throttle if differential == "throttle" else None
         try:
             self.frame = _FRAME_ALIASES[frame.lower()] if isinstance(frame, str) else Frame(frame)
         except (KeyError, ValueError):
@@ -153,6 +180,10 @@ class Mixer:
             tx = tx if math.isfinite(tx) else 0.0
             ty = ty if math.isfinite(ty) else 0.0
             tz = tz if math.isfinite(tz) else 0.0
+        request = (tx, ty, tz)
+        gain = 1.0 if self._per_hover is None else d_c * self._per_hover
+        if gain != 1.0:
+            tx, ty, tz = tx * gain, ty * gain, tz * gain
         f_c = fmax * d_c * d_c  # collective per motor: 4 F_max d_c^2 / 4
         mr, mp, my = self._m_roll, self._m_pitch, self._m_yaw
         rp = [mr[0] * tx + mp[0] * ty, mr[1] * tx + mp[1] * ty, mr[2] * tx + mp[2] * ty, mr[3] * tx + mp[3] * ty]
@@ -181,11 +212,19 @@ class Mixer:
         f0, f1, f2, f3 = (fmax if f > fmax else 0.0 if f < 0.0 else f for f in thrust)
         sqrt, inv = math.sqrt, 1.0 / fmax
         ny, px, sz = self._ny, self._px, self._sz
+        applied = (ny[0] * f0 + ny[1] * f1 + ny[2] * f2 + ny[3] * f3,
+                   px[0] * f0 + px[1] * f1 + px[2] * f2 + px[3] * f3,
+                   sz[0] * f0 + sz[1] * f1 + sz[2] * f2 + sz[3] * f3)
+        if gain == 1.0:
+            command = applied
+        elif gain > 0.0:
+            command = (applied[0] / gain, applied[1] / gain, applied[2] / gain)
+        else:  # no differential at zero collective: the request is what the firmware holds
+            command = request
         return MixResult(
             (sqrt(f0 * inv), sqrt(f1 * inv), sqrt(f2 * inv), sqrt(f3 * inv)),
-            (ny[0] * f0 + ny[1] * f1 + ny[2] * f2 + ny[3] * f3,
-             px[0] * f0 + px[1] * f1 + px[2] * f2 + px[3] * f3,
-             sz[0] * f0 + sz[1] * f1 + sz[2] * f2 + sz[3] * f3),
+            applied,
             saturated,
             sqrt((f0 + f1 + f2 + f3) * 0.25 * inv),
+            command,
         )

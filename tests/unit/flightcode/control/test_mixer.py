@@ -142,3 +142,69 @@ def test_mix_properties(frame: str, d_c: float, tx: float, ty: float, tz: float)
         assert (ax, ay) == pytest.approx((tx, ty), abs=1e-9)
     # Yaw is only ever reduced, never reversed or amplified.
     assert az * tz >= -1e-12 and abs(az) <= abs(tz) + 1e-9
+
+
+D_H = 0.724  # the paper's quad: sqrt(1.1 g / 20.6)
+
+
+def _pwm_linear(d_c: float, tau: tuple[float, float, float]) -> tuple[float, float, float, float]:
+    """Reference PWM-era mixer, independently: d_i = d_c + dd_i with dd from the thrust split
+    linearised at hover, dF = 2 F_max d_h dd (X frame)."""
+    f_per_roll = [-1 / (4 * L), 1 / (4 * L), 1 / (4 * L), -1 / (4 * L)]  # thrust per N m, motors 0-3
+    f_per_pitch = [1 / (4 * L), -1 / (4 * L), 1 / (4 * L), -1 / (4 * L)]
+    f_per_yaw = [1 / (4 * C), 1 / (4 * C), -1 / (4 * C), -1 / (4 * C)]
+    return tuple(d_c + (r * tau[0] + p * tau[1] + y * tau[2]) / (2 * F_MAX * D_H)
+                 for r, p, y in zip(f_per_roll, f_per_pitch, f_per_yaw))  # type: ignore[return-value]
+
+
+@settings(max_examples=80, deadline=None)
+@given(d_c=st.floats(0.5, 0.9), axis=st.integers(0, 2), tau=st.floats(-0.2, 0.2))
+def test_throttle_differential_on_one_axis_is_a_pwm_linear_mixer(d_c, axis, tau) -> None:
+    """On one axis the motors move in pairs, (d + dd)^2 - (d - dd)^2 = 4 d dd: the torque of
+    a throttle-linear mixer is exactly d_c / d_h times the request."""
+    request = tuple(tau / 10 if k == axis == 2 else tau if k == axis else 0.0 for k in range(3))
+    r = Mixer(differential="throttle", hover_throttle=D_H).mix(d_c, request)
+    assert not r.saturated
+    ref = _torque(X_LAYOUT, _pwm_linear(d_c, request))
+    assert r.applied_tau_Nm == pytest.approx(ref[1:], abs=1e-9)
+    assert r.applied_command_Nm == pytest.approx(request, abs=1e-9)
+
+
+@settings(max_examples=80, deadline=None)
+@given(d_c=st.floats(0.5, 0.9), tx=st.floats(-0.2, 0.2), ty=st.floats(-0.2, 0.2), tz=st.floats(-0.02, 0.02))
+def test_throttle_differential_scales_the_request_by_the_collective(d_c, tx, ty, tz) -> None:
+    """Axes combined: the applied torque is the request times d_c / d_h; a PWM mixer's dd^2
+    cross terms (left out, flightcode/control/mixer.py) stay within 20 mN m here."""
+    r = Mixer(differential="throttle", hover_throttle=D_H).mix(d_c, (tx, ty, tz))
+    assert not r.saturated
+    assert r.applied_tau_Nm == pytest.approx(tuple(t * d_c / D_H for t in (tx, ty, tz)), abs=1e-9)
+    assert r.applied_command_Nm == pytest.approx((tx, ty, tz), abs=1e-9)
+    ref = _torque(X_LAYOUT, _pwm_linear(d_c, (tx, ty, tz)))
+    assert r.applied_tau_Nm == pytest.approx(ref[1:], abs=2e-2)
+
+
+def test_throttle_differential_at_hover_is_the_thrust_mixer() -> None:
+    a = Mixer(differential="throttle", hover_throttle=D_H).mix(D_H, (0.1, -0.05, 0.01))
+    b = Mixer().mix(D_H, (0.1, -0.05, 0.01))
+    assert a.throttle == pytest.approx(b.throttle, abs=1e-12)
+    assert b.applied_command_Nm == b.applied_tau_Nm
+
+
+def test_payload_raises_the_torque_gain_with_the_collective() -> None:
+    """+300 g: hover at d = sqrt(1.4 g / 20.6) = 0.817, gain 0.817 / 0.724 = 1.128 (paper.md 2.7)."""
+    d_payload = math.sqrt(1.4 * 9.80665 / 20.6)
+    r = Mixer(differential="throttle", hover_throttle=D_H).mix(d_payload, (0.1, 0.0, 0.0))
+    assert r.applied_tau_Nm[0] / 0.1 == pytest.approx(1.128, abs=0.002)
+    assert Mixer().mix(d_payload, (0.1, 0.0, 0.0)).applied_tau_Nm[0] == pytest.approx(0.1)
+
+
+def test_throttle_differential_saturation_reports_the_command_units() -> None:
+    r = Mixer(differential="throttle", hover_throttle=D_H).mix(0.98, (0.6, 0.0, 0.0))
+    assert r.saturated
+    assert r.applied_command_Nm[0] == pytest.approx(r.applied_tau_Nm[0] / (0.98 / D_H))
+
+
+@pytest.mark.parametrize("kw", [{"differential": "pwm"}, {"hover_throttle": 0.0}, {"hover_throttle": 1.0}])
+def test_bad_differential_settings_are_rejected(kw) -> None:
+    with pytest.raises(ValueError):
+        Mixer(**kw)
