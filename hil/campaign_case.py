@@ -231,10 +231,13 @@ async def _fly(params: dict[str, Any]) -> dict[str, Any]:
     # The stop flag is watched here too, not only by run_case: if the worker that started this
     # process died (a Ctrl-C in the terminal reaches a LocalCluster's workers), nobody else would.
     watcher = asyncio.create_task(_watch_stop(params.get("stop_file"), stop))
+    # keep_logs = "none" would delete the MCAP whatever the verdict: do not write it. The
+    # recorder is about a fifth of a flight's CPU (docs/performance.md, Campaign throughput).
+    record = params.get("keep_logs", "failed") != "none"
     try:
         result = await run_flight_async(
             rig, scenario, mode=Mode(params["mode"]), seed=int(params["seed"]), duration_s=params.get("duration_s"),
-            out_dir=log_path.parent, log_path=log_path, scenario_source=scenario_path)
+            out_dir=log_path.parent, log_path=log_path, scenario_source=scenario_path, record=record)
     finally:
         watcher.cancel()
         for sig in (signal.SIGINT, signal.SIGTERM):

@@ -3,6 +3,7 @@ whose process is SIGKILLed, a worker that dies, and Ctrl-C."""
 
 from __future__ import annotations
 
+import asyncio
 import io
 import json
 import os
@@ -20,6 +21,7 @@ from tests.unit.campaign import cases as fake
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
 DATA = Path(__file__).with_name("data")
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _quiet() -> Console:
@@ -102,6 +104,30 @@ def test_a_case_whose_process_is_killed_is_a_failure_not_a_crashed_campaign(tmp_
     assert (run.summary["failed"], run.summary["passed"], run.summary["interrupted"]) == (2, 0, False)
     assert sorted(run.summary["failed_cases"]) == ["0000", "0001"]
     assert not run.passed
+
+
+@pytest.mark.parametrize(("keep", "record"), [("all", True), ("failed", True), ("none", False)])
+def test_keep_logs_none_flies_unrecorded(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, keep: str,
+                                         record: bool) -> None:
+    """A log that would be deleted whatever the verdict is not written at all."""
+    import hil.run
+    from hil import campaign_case
+    from hil.bench import EndReason
+    from hil.run import RunResult
+
+    asked: dict[str, Any] = {}
+
+    async def fake_flight(rig, scenario, **kwargs):  # noqa: ANN001, ANN202
+        asked.update(kwargs)
+        return RunResult(None, EndReason.COMPLETED, [], 0, [], {}, {})
+
+    monkeypatch.setattr(hil.run, "run_flight_async", fake_flight)
+    params = {"case_id": "0000", "rig": str(ROOT / "rigs" / "paper-quad.toml"), "scenario": str(DATA / "hover-2s.toml"),
+              "seed": 1, "mode": "lockstep", "duration_s": None, "flight_overrides": {}, "rig_overrides": {},
+              "case_dir": str(tmp_path), "log_path": str(tmp_path / "x.mcap"), "keep_logs": keep}
+    result = asyncio.run(campaign_case._fly(params))
+    assert asked["record"] is record
+    assert result["log"] is None and result["passed"]
 
 
 def test_a_dead_worker_fails_only_its_own_case(tmp_path: Path) -> None:
