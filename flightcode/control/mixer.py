@@ -62,6 +62,14 @@ class Frame(Enum):
 
 
 _FRAME_ALIASES = {"x": Frame.X, "plus": Frame.PLUS, "+": Frame.PLUS}
+
+
+@unique
+class Differential(Enum):
+    """How roll, pitch and yaw torques become per-motor throttle (module docstring)."""
+
+    THRUST = "thrust"  #: exact inverse of F = F_max d^2: torque gain 1
+    THROTTLE = "throttle"  #: linear in throttle, sized at hover: torque gain d_c / d_h
 _EPS_N = 1e-9  # thrust tolerance for "fits", N
 
 
@@ -100,7 +108,7 @@ class Mixer:
         arm_m: centre-to-motor distance, m.
         F_max_motor_N: thrust of one motor at full throttle, N (20.6 N / 4).
         kq_over_kt_m: reaction-torque to thrust ratio of a prop, m.
-        differential: ``"thrust"`` or ``"throttle"`` (module docstring).
+        differential: :class:`Differential` or its value, ``"thrust"`` or ``"throttle"``.
         hover_throttle: d_h, unit throttle, the ``"throttle"`` differential's design point.
     """
 
@@ -110,15 +118,17 @@ class Mixer:
         arm_m: float = 0.25,
         F_max_motor_N: float = 5.15,
         kq_over_kt_m: float = 0.016,
-        differential: str = "thrust",
+        differential: Differential | str = Differential.THRUST,
         hover_throttle: float = 0.5,
     ) -> None:
-        if differential not in ("thrust", "throttle"):
-            raise ValueError(f"differential must be 'thrust' or 'throttle', got {differential!r}")
+        try:
+            self.differential = Differential(differential)
+        except ValueError:
+            raise ValueError(f"differential must be 'thrust' or 'throttle', got {differential!r}") from None
         if not (0.0 < hover_throttle < 1.0):
             raise ValueError(f"hover_throttle must be in (0, 1), got {hover_throttle}")
-        #: 1 / d_h for the "throttle" differential; None mixes in thrust.
-        self._per_hover: float | None = 1.0 / hover_throttle if differential == "throttle" else None
+        #: 1 / d_h for the throttle differential; None mixes in thrust.
+        self._per_hover: float | None = 1.0 / hover_throttle if self.differential is Differential.THROTTLE else None
         try:
             self.frame = _FRAME_ALIASES[frame.lower()] if isinstance(frame, str) else Frame(frame)
         except (KeyError, ValueError):

@@ -208,3 +208,12 @@ def test_throttle_differential_saturation_reports_the_command_units() -> None:
 def test_bad_differential_settings_are_rejected(kw) -> None:
     with pytest.raises(ValueError):
         Mixer(**kw)
+
+
+def test_differential_by_enum_or_value() -> None:
+    from flightcode.control.mixer import Differential
+
+    assert Mixer(differential="throttle", hover_throttle=D_H).differential is Differential.THROTTLE
+    assert Mixer(differential=Differential.THROTTLE, hover_throttle=D_H).mix(0.8, (0.1, 0, 0)).applied_tau_Nm[0] == (
+        pytest.approx(0.1 * 0.8 / D_H))
+    assert Mixer().differential is Differential.THRUST
