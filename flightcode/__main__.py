@@ -23,6 +23,7 @@ import serial
 from flightcode.config import ConfigError, FlightConfig, load
 from flightcode.drivers import sbus
 from flightcode.drivers.base import DeviceError, SerialLike
+from flightcode.gc_policy import LoopCollector
 from flightcode.log import Logger
 
 EXIT_OK, EXIT_INTERNAL, EXIT_CONFIG, EXIT_DEVICE = 0, 1, 2, 3
@@ -92,6 +93,7 @@ def main(argv: list[str] | None = None) -> int:
     previous = {sig: signal.signal(sig, _on_signal) for sig in (signal.SIGTERM, signal.SIGINT)}
     ports: dict[str, SerialLike] = {}
     flight = None
+    collector = LoopCollector()
     try:
         ports = open_ports(cfg)
         log.info("ports.open", **{name: getattr(cfg.ports, name).path for name in ports})
@@ -101,7 +103,8 @@ def main(argv: list[str] | None = None) -> int:
 
         flight = FlightLoop(cfg, make_devices(cfg, ports, log), log)
         flight.boot()
-        flight.run()
+        collector.start()  # collections between samples from now on (flightcode/gc_policy.py)
+        flight.run(between=collector.after_iteration)
         return EXIT_OK  # run() returns only with max_iterations
     except Shutdown as exc:
         log.info("signal", name=str(exc))
@@ -126,6 +129,9 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERNAL
     finally:
         _ignore_signals()
+        if collector.running:
+            collector.stop()
+            log.info("gc", **{f"gen{g}_collections": n for g, n in sorted(collector.collections.items())})
         for port in ports.values():
             try:
                 port.close()

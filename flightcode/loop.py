@@ -196,11 +196,15 @@ class FlightLoop:
             self._port_error("esc", exc)
 
     # -- running ----------------------------------------------------------------------------
-    def run(self, max_iterations: int | None = None) -> None:
-        """Iterate forever (or ``max_iterations`` IMU reads, samples and timeouts alike)."""
+    def run(self, max_iterations: int | None = None, between: Callable[[], object] | None = None) -> None:
+        """Iterate forever (or ``max_iterations`` IMU reads, samples and timeouts alike);
+        ``between`` runs after each iteration, once its ESC command is written (the garbage
+        collector's slot, flightcode/gc_policy.py)."""
         n = 0
         while max_iterations is None or n < max_iterations:
             self.step()
+            if between is not None:
+                between()
             n += 1
 
     def step(self) -> ImuSample | None:

@@ -104,6 +104,7 @@ async def test_real_ptys_boot_fly_disarmed_and_sigterm(tmp_path: Path) -> None:
         text = err.decode()
         assert "event=signal name=SIGTERM" in text and "event=shutdown" in text
         assert "event=mode old=boot new=disarmed" in text
+        assert "event=gc" in text  # the loop's collector ran and handed collection back (gc_policy)
         assert telemetry.count(b"\x7e\x00\x5f\x01") >= 12  # 100 samples / 8, API TX16 frames
     finally:
         if proc.returncode is None:
