@@ -9,9 +9,9 @@ within 2.5 ms therefore:
 1. collects everything once after boot and freezes the survivors (``gc.freeze``): modules,
    config, controllers and their matrices are never traversed again;
 2. turns automatic collection off;
-3. after each iteration (the ESC command is already written) collects the youngest
-   generation that CPython's own thresholds would, so garbage is reclaimed at the same pace,
-   off the sample-to-command path.
+3. after each iteration (the ESC command is already written) collects the generation
+   CPython's own thresholds would, so garbage is reclaimed at the same pace, off the
+   sample-to-command path.
 
 :meth:`LoopCollector.stop` gives the process its automatic collection back.
 """

@@ -101,17 +101,13 @@ class RunLogger:
         if recorder is not None:
             for port in ports.values():
                 port.taps.append(self._wire)
-        elif "telemetry" in ports:
-            # Not recorded, but the criteria still read the telemetry (tm.* signals).
+        if "telemetry" in ports:  # recorded or not, the criteria read the telemetry (tm.*)
             ports["telemetry"].taps.append(self._telemetry_wire)
 
     # -- sources ----------------------------------------------------------------------------------
     def _wire(self, rec: WireRecord) -> None:
         assert self.out is not None
         self.out.log_wire(rec.port, rec.direction.value, rec.t_ns, rec.t_host_ns, rec.data)
-        if rec.port == "telemetry" and rec.direction.value == "rx":
-            for t_frame in self.telemetry.feed(rec.data):
-                self._telemetry(rec.t_ns, rec.t_host_ns, t_frame)
 
     def _telemetry_wire(self, rec: WireRecord) -> None:
         if rec.direction.value == "rx":

@@ -62,6 +62,7 @@ class Frame(Enum):
 
 
 _FRAME_ALIASES = {"x": Frame.X, "plus": Frame.PLUS, "+": Frame.PLUS}
+_EPS_N = 1e-9  # thrust tolerance for "fits", N
 
 
 @unique
@@ -70,7 +71,6 @@ class Differential(Enum):
 
     THRUST = "thrust"  #: exact inverse of F = F_max d^2: torque gain 1
     THROTTLE = "throttle"  #: linear in throttle, sized at hover: torque gain d_c / d_h
-_EPS_N = 1e-9  # thrust tolerance for "fits", N
 
 
 @dataclass(frozen=True)
@@ -190,8 +190,8 @@ class Mixer:
             tx = tx if math.isfinite(tx) else 0.0
             ty = ty if math.isfinite(ty) else 0.0
             tz = tz if math.isfinite(tz) else 0.0
-        request = (tx, ty, tz)
         gain = 1.0 if self._per_hover is None else d_c * self._per_hover
+        rx, ry, rz = tx, ty, tz  # the request, for the controllers when nothing can be applied
         if gain != 1.0:
             tx, ty, tz = tx * gain, ty * gain, tz * gain
         f_c = fmax * d_c * d_c  # collective per motor: 4 F_max d_c^2 / 4
@@ -225,12 +225,10 @@ class Mixer:
         applied = (ny[0] * f0 + ny[1] * f1 + ny[2] * f2 + ny[3] * f3,
                    px[0] * f0 + px[1] * f1 + px[2] * f2 + px[3] * f3,
                    sz[0] * f0 + sz[1] * f1 + sz[2] * f2 + sz[3] * f3)
-        if gain == 1.0:
-            command = applied
-        elif gain > 0.0:
-            command = (applied[0] / gain, applied[1] / gain, applied[2] / gain)
-        else:  # no differential at zero collective: the request is what the firmware holds
-            command = request
+        # in the controllers' units; at zero collective there is no differential, and the
+        # request is what the firmware holds
+        command = applied if gain == 1.0 else (rx, ry, rz) if gain <= 0.0 else (
+            applied[0] / gain, applied[1] / gain, applied[2] / gain)
         return MixResult(
             (sqrt(f0 * inv), sqrt(f1 * inv), sqrt(f2 * inv), sqrt(f3 * inv)),
             applied,

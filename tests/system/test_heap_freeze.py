@@ -19,5 +19,5 @@ async def test_the_run_freezes_its_heap_and_gives_it_back(fly) -> None:
     result = await fly("hover", duration_s=1.0, record=False, keep_trace=False,
                        progress=lambda *_: seen.append(gc.get_freeze_count()))
     assert result.end_reason is EndReason.COMPLETED, explain(result)
-    assert seen and min(seen[1:] or seen) > 0  # during the ticks
+    assert seen and min(seen) > 0  # every tick
     assert gc.get_freeze_count() == 0
