@@ -11,13 +11,13 @@ timed assertion. (tests/bench/bench_memory.py measures a whole bench process.)
 from __future__ import annotations
 
 import math
-import tracemalloc
 
 from hil.criteria_stream import CriteriaStream
 from hil.runlog import STAMP_MAX_AGE_NS
 from hil.scenario import Criterion
 from hil.signal_stream import Held
 from hil.timing import StreamingStats
+from tests.unit.bench.traced import traced
 from hil.trace_stream import TraceStream
 
 TICK_NS = 2_500_000
@@ -47,37 +47,36 @@ CRITERIA = [
 ]
 
 
+def _flight(seconds: float) -> tuple[object, ...]:
+    """The stream and its criteria after ``seconds`` of synthetic flight (kept alive)."""
+    stream = TraceStream(horizon_ns=STAMP_MAX_AGE_NS + 100 * TICK_NS)
+    stream.define("truth", TRUTH)
+    stream.define("esc", ESC)
+    criteria = CriteriaStream(CRITERIA, stream)
+    compute, held = StreamingStats(), Held("tm.compute_last_us")
+    stream.subscribe(lambda chunk: compute.extend(held.block(chunk)[1]))
+    rest = (0.0,) * 13
+    for k in range(int(seconds * 400)):
+        t_ns = k * TICK_NS
+        t_s = t_ns / 1e9
+        roll = 2.0 * math.sin(4 * math.pi * t_s)
+        h = 2.0 if t_s < 3.0 else 3.0 - math.exp(-(t_s - 3.0))
+        if k % TM_EVERY == 0 and k >= TM_DELAY_TICKS:
+            stamp = t_ns - TM_DELAY_TICKS * TICK_NS
+            for name, v in (("tm.roll_ref_deg", roll), ("tm.alt_est_m", h), ("tm.tau_roll_Nm", 0.01 * roll),
+                            ("tm.compute_last_us", 300.0 + k % 7)):
+                stream.point(name, stamp, v)
+        stream.row("truth", t_ns, (roll, 0.1, 0.0, h, *rest))
+        stream.row("esc", t_ns, (1500.0 + roll, 1500.0, 1500.0, 1500.0, 0.5, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0, 1.0))
+    results = criteria.results()
+    assert all(math.isfinite(r.value) for r in results), results
+    assert stream.late_points == 0
+    return stream, criteria, compute, held
+
+
 def _fly(seconds: float) -> int:
     """Bytes the stream and its criteria hold after ``seconds`` of synthetic flight."""
-    tracemalloc.start()
-    try:
-        base, _ = tracemalloc.get_traced_memory()
-        stream = TraceStream(horizon_ns=STAMP_MAX_AGE_NS + 100 * TICK_NS)
-        stream.define("truth", TRUTH)
-        stream.define("esc", ESC)
-        criteria = CriteriaStream(CRITERIA, stream)
-        compute, held = StreamingStats(), Held("tm.compute_last_us")
-        stream.subscribe(lambda chunk: compute.extend(held.block(chunk)[1]))
-        rest = (0.0,) * 13
-        for k in range(int(seconds * 400)):
-            t_ns = k * TICK_NS
-            t_s = t_ns / 1e9
-            roll = 2.0 * math.sin(4 * math.pi * t_s)
-            h = 2.0 if t_s < 3.0 else 3.0 - math.exp(-(t_s - 3.0))
-            if k % TM_EVERY == 0 and k >= TM_DELAY_TICKS:
-                stamp = t_ns - TM_DELAY_TICKS * TICK_NS
-                for name, v in (("tm.roll_ref_deg", roll), ("tm.alt_est_m", h), ("tm.tau_roll_Nm", 0.01 * roll),
-                                ("tm.compute_last_us", 300.0 + k % 7)):
-                    stream.point(name, stamp, v)
-            stream.row("truth", t_ns, (roll, 0.1, 0.0, h, *rest))
-            stream.row("esc", t_ns, (1500.0 + roll, 1500.0, 1500.0, 1500.0, 0.5, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0, 1.0))
-        results = criteria.results()
-        assert all(math.isfinite(r.value) for r in results), results
-        assert stream.late_points == 0
-        size, _ = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
-    return size - base
+    return traced(lambda: _flight(seconds))[1]
 
 
 def test_a_10_minute_flight_holds_what_a_10_s_flight_holds() -> None:
