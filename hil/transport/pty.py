@@ -68,6 +68,27 @@ def _read_line_settings(fd: int, opened: bool) -> LineSettings:
     return LineSettings(baud, size, parity, stopbits, opened)
 
 
+class WriteLog:
+    """Writes the bench made to a group of ports, for a reader that must know whether and
+    where anything was written since it last looked (the virtual-time scheduler, once or
+    more a tick): a running count and the ports written since ``take``."""
+
+    __slots__ = ("count", "_written")
+
+    def __init__(self) -> None:
+        self.count = 0  #: writes so far, never reset
+        self._written: set[PtyPort] = set()
+
+    def note(self, port: PtyPort) -> None:
+        self.count += 1
+        self._written.add(port)
+
+    def take(self) -> set[PtyPort]:
+        """The ports written since the last call (then none)."""
+        written, self._written = self._written, set()
+        return written
+
+
 class PtyPort(BufferedWrites, Port):
     """A pty whose slave is published as ``<dev_dir>/<name>``."""
 
@@ -94,6 +115,8 @@ class PtyPort(BufferedWrites, Port):
         self._writer_registered = False
         self._closed = False
         self.line = _read_line_settings(self._slave, opened=False)
+        #: told of every write, if set (``hil.vtime``'s scheduler)
+        self.write_log: WriteLog | None = None
 
     @property
     def path(self) -> str:
@@ -154,6 +177,8 @@ class PtyPort(BufferedWrites, Port):
         if self._closed or not data:
             return 0
         self.stats.writes += 1
+        if self.write_log is not None:
+            self.write_log.note(self)
         self._tap(Direction.TX, data, self.sim_time())
         if self._pending:
             return self._buffer(data)

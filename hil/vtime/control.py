@@ -51,6 +51,25 @@ class ThreadView:
     futex: bool = False  #: blocked on a lock/semaphore/condition/join of its own process
 
 
+def _view(index: int, raw: tuple[int, ...]) -> ThreadView:
+    """The :class:`ThreadView` of slot ``index`` from its ``abi.SLOT_STRUCT`` record."""
+    seq = raw[abi.SLOT_SEQ]
+    nkeys = raw[abi.SLOT_NKEYS]
+    keys: tuple[tuple[int, int], ...] | None = None
+    if nkeys != abi.KEYS_UNKNOWN:
+        n = min(nkeys, abi.MAX_KEYS)
+        rdev, events = abi.SLOT_KEY_RDEV, abi.SLOT_KEY_EVENTS
+        keys = tuple((raw[rdev + k], raw[events + k]) for k in range(n))
+    deadline = raw[abi.SLOT_DEADLINE]
+    return ThreadView(
+        index, raw[abi.SLOT_TID], raw[abi.SLOT_PID], seq,
+        bool(seq & 1) and raw[abi.SLOT_STATE] == abi.State.BLOCKED,
+        None if deadline == abi.NO_DEADLINE else deadline,
+        raw[abi.SLOT_CPU], raw[abi.SLOT_SEEN_EPOCH], keys, raw[abi.SLOT_SPIN_YIELDS],
+        raw[abi.SLOT_WAIT_KIND] == abi.Wait.FUTEX,
+    )
+
+
 class ControlBlock:
     """Create, map and drive the control block of one run."""
 
@@ -64,6 +83,10 @@ class ControlBlock:
             os.close(fd)
         self.header = abi.Header.from_buffer(self._map)
         self.slots = (abi.Slot * abi.MAX_THREADS).from_buffer(self._map, ctypes.sizeof(abi.Header))
+        #: the slots' bytes, read whole by ``threads`` (one C call instead of ctypes fields)
+        self._slot_bytes = memoryview(self._map)[ctypes.sizeof(abi.Header) : abi.BLOCK_SIZE]
+        #: per slot: (its raw record, the view made of it), reused while the record is unchanged
+        self._views: list[tuple[tuple[int, ...], ThreadView] | None] = [None] * abi.MAX_THREADS
         h = self.header
         h.version, h.max_threads, h.slot_size = abi.VERSION, abi.MAX_THREADS, ctypes.sizeof(abi.Slot)
         h.mono_base_ns, h.real_base_ns, h.tai_offset_ns = MONO_BASE_NS, REAL_BASE_NS, TAI_OFFSET_NS
@@ -111,22 +134,24 @@ class ControlBlock:
 
     # -- threads ------------------------------------------------------------------------------
     def threads(self) -> list[ThreadView]:
-        """Snapshot of every claimed slot."""
+        """Snapshot of every claimed slot.
+
+        The slots are copied in one ``struct`` call; a slot whose record did not change since
+        the last snapshot gives the same :class:`ThreadView` (the view is a pure function of
+        the record). Fields are read in memory order, ``seq`` before the rest, as the
+        seqlock-style re-check in the scheduler (``seq``) expects."""
         out: list[ThreadView] = []
-        for i, s in enumerate(self.slots):
-            if not s.tid:
+        views = self._views
+        for i, raw in enumerate(abi.SLOT_STRUCT.iter_unpack(self._slot_bytes)):
+            if not raw[abi.SLOT_TID]:
                 continue
-            seq = s.seq
-            blocked = bool(seq & 1) and s.state == abi.State.BLOCKED
-            keys: tuple[tuple[int, int], ...] | None = None
-            if s.nkeys != abi.KEYS_UNKNOWN:
-                n = min(s.nkeys, abi.MAX_KEYS)
-                keys = tuple((s.key_rdev[k], s.key_events[k]) for k in range(n))
-            deadline = s.deadline_ns
-            out.append(
-                ThreadView(i, s.tid, s.pid, seq, blocked, None if deadline == abi.NO_DEADLINE else deadline,
-                           s.cpu_ns, s.seen_epoch, keys, s.spin_yields, s.wait_kind == abi.Wait.FUTEX)
-            )
+            cached = views[i]
+            if cached is not None and cached[0] == raw:
+                out.append(cached[1])
+                continue
+            view = _view(i, raw)
+            views[i] = (raw, view)
+            out.append(view)
         return out
 
     def seq(self, index: int) -> int:
@@ -193,7 +218,8 @@ class ControlBlock:
             with contextlib.suppress(OSError):
                 os.close(fd)
         # ctypes views keep exports of the map alive; drop them before closing it
-        del self.header, self.slots
+        self._slot_bytes.release()
+        del self.header, self.slots, self._slot_bytes
         with contextlib.suppress(BufferError):
             self._map.close()
         for p in [self.path, Path(f"{self.path}.n"), *(Path(f"{self.path}.w{i:02d}") for i in range(abi.MAX_THREADS))]:

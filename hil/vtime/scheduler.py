@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from hil import clock
+from hil.transport.pty import WriteLog
 from hil.vtime.control import ControlBlock, ThreadStates, ThreadView, pid_alive
 
 POLLIN, POLLPRI, POLLOUT = select.POLLIN, select.POLLPRI, select.POLLOUT
@@ -43,8 +44,7 @@ class ScheduledPort(Protocol):
     def slave_fd(self) -> int: ...
     @property
     def rdev_key(self) -> int: ...
-    @property
-    def writes(self) -> int: ...
+    write_log: WriteLog | None
     def read_available(self) -> bool: ...
 
 
@@ -92,7 +92,11 @@ class VirtualClock:
         self._by_key = {p.rdev_key: p for p in self.ports.values()}
         self._master = {p.master_fd: p for p in self.ports.values()}
         self._masters = list(self._master)
-        self._writes = {name: p.writes for name, p in self.ports.items()}
+        #: the bench's writes to these ports: whether anything was written since an idle
+        #: verdict, and which ports to flush (no per-port polling on every check)
+        self._written = WriteLog()
+        for p in self.ports.values():
+            p.write_log = self._written
         self.offset_ns = 0
         self.t_ns = 0
         self.pid: int | None = None
@@ -115,7 +119,7 @@ class VirtualClock:
         self._events = 0
         #: (events, port writes) when the flight code was last found idle, and the slots then:
         #: while both are unchanged it is still idle and its slots are as they were
-        self._idle_at: tuple[int, tuple[int, ...]] | None = None
+        self._idle_at: tuple[int, int] | None = None
         self._snapshot: list[ThreadView] = []
 
     # -- clock ------------------------------------------------------------------------------------
@@ -208,14 +212,9 @@ class VirtualClock:
     def flush_written(self) -> bool:
         """Make every byte the bench wrote since the last call readable by the client now (a
         zero-timeout poll runs the ptys' pending flush work); bumps the epoch if any."""
-        written = []
-        for name, p in self.ports.items():
-            w = p.writes
-            if w != self._writes[name]:
-                self._writes[name] = w
-                written.append(p.slave_fd)
+        written = self._written.take()
         if written:
-            select.select(written, [], [], 0)
+            select.select([p.slave_fd for p in written], [], [], 0)
             self.ctl.bump_epoch()
         return bool(written)
 
@@ -240,13 +239,10 @@ class VirtualClock:
         if waiter is not None and not waiter.done():
             waiter.set_result(None)
 
-    def _port_writes(self) -> tuple[int, ...]:
-        return tuple(p.writes for p in self.ports.values())
-
     def _still_idle(self) -> bool:
         """Found idle, and nothing has happened since that could change it (no notification,
         poke or wake, no byte written by the bench): the check need not be made again."""
-        return self._idle_at is not None and self._idle_at == (self._events, self._port_writes())
+        return self._idle_at is not None and self._idle_at == (self._events, self._written.count)
 
     def _threads(self) -> list[ThreadView]:
         """The slots: the snapshot of the last idle verdict while it holds, else read now."""
@@ -304,7 +300,7 @@ class VirtualClock:
             return False
         if not any(t.futex and t.deadline_ns is not None for t in threads):
             # a timed futex wait ends on the host clock without telling anyone: never cached
-            self._idle_at, self._snapshot = (self._events, self._port_writes()), threads
+            self._idle_at, self._snapshot = (self._events, self._written.count), threads
         return True
 
     async def idle(self, running: Callable[[], bool]) -> bool:
