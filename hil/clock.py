@@ -13,9 +13,9 @@ import threading
 import time
 
 
-def monotonic_ns() -> int:
-    """Host CLOCK_MONOTONIC in ns (for emit stamps, timeouts and compute measurement)."""
-    return time.monotonic_ns()
+#: Host CLOCK_MONOTONIC in ns (for emit stamps, timeouts and compute measurement). The
+#: builtin itself, not a wrapper: the tick path reads it about 17 times a tick.
+monotonic_ns = time.monotonic_ns
 
 
 def wall_ns() -> int:

@@ -108,3 +108,25 @@ def test_garbage_never_crashes_and_next_frame_parses(garbage: bytes, escaped: bo
     frame = encode_frame(tx_status(7, 0), escaped=escaped)
     got = p.feed(b"\x00" * 260 + frame) if not escaped else p.feed(frame)
     assert got[-1:] == [tx_status(7, 0)]
+
+
+@given(
+    st.lists(
+        st.one_of(
+            st.binary(min_size=1, max_size=40).map(lambda d: ("frame", d)),
+            st.binary(max_size=12).map(lambda g: ("garbage", g)),
+        ),
+        max_size=6,
+    ),
+    st.booleans(),
+    st.lists(st.integers(0, 400), max_size=6),
+)
+@settings(max_examples=300, deadline=None)
+def test_the_slice_path_gives_the_byte_by_byte_frames_and_counters(parts, escaped: bool, cuts: list[int]) -> None:
+    wire = b"".join(encode_frame(d, escaped=escaped) if kind == "frame" else d for kind, d in parts)
+    fast, ref = ApiParser(escaped=escaped), ApiParser(escaped=escaped, fast_path=False)
+    pos = 0
+    for c in sorted(set(min(c, len(wire)) for c in cuts)) + [len(wire)]:
+        assert fast.feed(wire[pos:c]) == ref.feed(wire[pos:c])
+        pos = c
+    assert fast.counters == ref.counters
