@@ -83,9 +83,12 @@ class WriteLog:
         self.count += 1
         self._written.add(port)
 
-    def take(self) -> set[PtyPort]:
+    def take(self) -> set[PtyPort] | frozenset[PtyPort]:
         """The ports written since the last call (then none)."""
-        written, self._written = self._written, set()
+        written = self._written
+        if not written:
+            return frozenset()
+        self._written = set()
         return written
 
 
