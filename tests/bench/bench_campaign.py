@@ -3,9 +3,12 @@
 Run: ``.venv/bin/python tests/bench/bench_campaign.py [--cases 20] [--workers 1 2 4] [--executor dask]``
 
 A campaign of ``--cases`` lockstep hover flights (``rigs/scenarios/hover.toml``, seeds 1..N,
-everything recorded, logs not kept) is run once per worker count, in the order given. For
-each: wall time, flights per hour, the speed-up over the first count, and the machine's
-busy share of its cores during the campaign (from /proc/stat). Then every case's criteria
+logs not kept, so unrecorded) is run once per worker count, in the order given. For each:
+wall time, flights per hour, the speed-up over the first count, and the machine's busy
+share of its cores during the campaign (from /proc/stat). Right before each campaign, the
+same number of copies of a fixed CPU-bound Python loop run side by side (median of 3): their
+speed-up over one copy is what this machine gives any CPU-bound Python work with that many
+processes, the ceiling to read the campaign's speed-up against. Then every case's criteria
 values are compared across the worker counts (all but the ``timing:`` ones, which judge the
 host's CPU time): on virtual time they must be identical, however many flights share the
 cores (more flights than cores included).
@@ -18,6 +21,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -33,6 +38,35 @@ def _cpu_busy() -> tuple[int, int]:
         fields = [int(x) for x in f.readline().split()[1:]]
     idle = fields[3] + fields[4]
     return sum(fields) - idle, sum(fields)
+
+
+#: a fixed amount of pure-Python work (dict and float operations, about 0.5 s on one core)
+_REFERENCE_WORK = """
+d = {}
+s = 0.0
+for i in range(3_000_000):
+    d[i & 1023] = i * 0.5
+    s += d.get((i * 7) & 1023, 0.0)
+"""
+
+
+def _reference_wall_s(copies: int) -> float:
+    """Wall time for ``copies`` processes, each doing ``_REFERENCE_WORK``, side by side."""
+    t0 = time.monotonic()
+    procs = [subprocess.Popen([sys.executable, "-c", _REFERENCE_WORK]) for _ in range(copies)]
+    for p in procs:
+        if p.wait() != 0:
+            raise RuntimeError("the reference workload failed")
+    return time.monotonic() - t0
+
+
+def _machine_speedup(copies: int) -> float:
+    """Throughput of ``copies`` CPU-bound processes over one (medians of 3, interleaved)."""
+    one, many = [], []
+    for _ in range(3):
+        one.append(_reference_wall_s(1))
+        many.append(_reference_wall_s(copies))
+    return copies * statistics.median(one) / statistics.median(many)
 
 
 def main() -> int:
@@ -66,13 +100,14 @@ def main() -> int:
         )
         campaign = load_campaign(path)
         for n in args.workers:
+            machine = _machine_speedup(n)
             busy0, total0 = _cpu_busy()
             t0 = time.monotonic()
             run = run_campaign(campaign, workers=n, executor=args.executor, out_dir=Path(tmp) / f"w{n}", console=quiet)
             wall = time.monotonic() - t0
             busy1, total1 = _cpu_busy()
             s = run.summary
-            rows.append((n, wall, s["passed"], s["failed"], s["done"], (busy1 - busy0) / max(total1 - total0, 1)))
+            rows.append((n, wall, s["passed"], s["failed"], s["done"], (busy1 - busy0) / max(total1 - total0, 1), machine))
             # the flight's criteria; "timing:" ones judge the host's CPU time, which load may change
             values[n] = {r["case_id"]: [(c["name"], c.get("value")) for c in r.get("criteria", [])
                                         if not c["name"].startswith("timing:")] for r in run.results}
@@ -81,13 +116,14 @@ def main() -> int:
                 if failing:
                     print(f"  seed {r['seed']} failed: " + "; ".join(failing), flush=True)
             print(f"workers {n}: {wall:.1f} s, {s['done']} flights ({s['passed']} passed), "
-                  f"{s['done'] / wall * 3600:.0f} flights/h, cores busy {rows[-1][5]:.0%}", flush=True)
+                  f"{s['done'] / wall * 3600:.0f} flights/h, cores busy {rows[-1][5]:.0%}; "
+                  f"{n} CPU-bound reference processes: {machine:.2f}x one", flush=True)
     n1, wall1 = rows[0][0], rows[0][1]
     print()
-    print(f"| workers | wall s | flights/h | speed-up vs {n1} | cores busy | passed |")
-    print("|---|---|---|---|---|---|")
-    for n, wall, passed, _failed, done, busy in rows:
-        print(f"| {n} | {wall:.1f} | {done / wall * 3600:.0f} | {wall1 / wall:.2f} | {busy:.0%} | {passed}/{done} |")
+    print(f"| workers | wall s | flights/h | speed-up vs {n1} | CPU-bound reference, n processes vs 1 | cores busy | passed |")
+    print("|---|---|---|---|---|---|---|")
+    for n, wall, passed, _failed, done, busy, machine in rows:
+        print(f"| {n} | {wall:.1f} | {done / wall * 3600:.0f} | {wall1 / wall:.2f} | {machine:.2f} | {busy:.0%} | {passed}/{done} |")
     ref = values[n1]
     same = all(values[n] == ref for n in values)
     print(f"\nflight criteria values identical across worker counts: {same}")
