@@ -13,7 +13,6 @@
 
 from __future__ import annotations
 
-import asyncio
 import signal
 import sys
 from pathlib import Path
@@ -90,6 +89,8 @@ def run(
         ScenarioRunner(scenario_obj, rig_obj, source)  # faults and budgets against the rig, before anything starts
     except ConfigError as exc:
         _fail(str(exc))
+    import asyncio
+
     from hil.attach import refuse_lockstep, resolve_attachments
     from hil.bench import Mode
     from hil.run import PORTS, run_flight_async
@@ -198,6 +199,8 @@ def devices(
     Exit status: 0 stopped (Ctrl-C or --duration); 2 bad input (rig, scenario, --attach, a
     serial device missing, busy or not permitted): nothing was started.
     """
+    import asyncio
+
     from hil.config import ConfigError
     from hil.devices_cmd import serve_devices
     from hil.rig import load_rig
@@ -328,6 +331,8 @@ def replay(
     Exit status: 0 played back (or --verify: the re-run matched); 1 --verify found a
     divergence; 2 no such file, or a log that cannot be replayed.
     """
+    import asyncio
+
     from hil.record import TornRecordingError
     from hil.replay import ReplayError, verify
     from hil.replay import replay as do_replay

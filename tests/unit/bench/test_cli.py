@@ -68,3 +68,15 @@ def test_help_and_argument_errors_import_nothing_heavy(argv: list[str]) -> None:
             f"print(sorted(m for m in sys.modules if m.split('.')[0] in {_HEAVY!r} or m in {_HEAVY!r}))")
     out = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=120)
     assert out.stdout.strip().splitlines()[-1] == "[]", (out.stdout, out.stderr)
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["perf", "--help"], ["campaign", "--help"]])
+def test_help_does_not_import_asyncio(argv: list[str]) -> None:
+    # a third of `hil.cli`'s own import time was asyncio, which only the commands that run use
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom hil.cli import app\ntry:\n    app(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+            "print('asyncio' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=120)
+    assert out.stdout.strip().splitlines()[-1] == "False", (out.stdout, out.stderr)
