@@ -225,10 +225,13 @@ class Mixer:
         applied = (ny[0] * f0 + ny[1] * f1 + ny[2] * f2 + ny[3] * f3,
                    px[0] * f0 + px[1] * f1 + px[2] * f2 + px[3] * f3,
                    sz[0] * f0 + sz[1] * f1 + sz[2] * f2 + sz[3] * f3)
-        # in the controllers' units; at zero collective there is no differential, and the
-        # request is what the firmware holds
-        command = applied if gain == 1.0 else (rx, ry, rz) if gain <= 0.0 else (
-            applied[0] / gain, applied[1] / gain, applied[2] / gain)
+        # in the controllers' units
+        if gain == 1.0:
+            command = applied
+        elif gain > 0.0:
+            command = (applied[0] / gain, applied[1] / gain, applied[2] / gain)
+        else:  # no differential at zero collective: the request is what the firmware holds
+            command = (rx, ry, rz)
         return MixResult(
             (sqrt(f0 * inv), sqrt(f1 * inv), sqrt(f2 * inv), sqrt(f3 * inv)),
             applied,

@@ -115,18 +115,29 @@ class Slot(ctypes.Structure):
 
 BLOCK_SIZE = ctypes.sizeof(Header) + MAX_THREADS * ctypes.sizeof(Slot)
 
-#: ``Slot`` as one ``struct`` record, for reading every slot in one C call (the bench's
-#: idle check reads them several times a tick; ctypes field access costs about 20x more).
-#: Little-endian without padding: ``Slot`` has none on the 64-bit targets the shim builds
-#: for, which tests/unit/vtime checks field by field.
-SLOT_STRUCT = struct.Struct(f"<iiIIqqQII{MAX_KEYS}I{MAX_KEYS}HIIII2Q")
-#: index of each field's first value in a ``SLOT_STRUCT`` record
-SLOT_TID, SLOT_PID, SLOT_STATE, SLOT_SEQ, SLOT_DEADLINE, SLOT_CPU, SLOT_BLOCKS = range(7)
-SLOT_SEEN_EPOCH, SLOT_NKEYS, SLOT_KEY_RDEV = 7, 8, 9
-SLOT_KEY_EVENTS = SLOT_KEY_RDEV + MAX_KEYS
-SLOT_SPIN_YIELDS = SLOT_KEY_EVENTS + MAX_KEYS
-SLOT_CLOCK_READS, SLOT_WAIT_KIND = SLOT_SPIN_YIELDS + 1, SLOT_SPIN_YIELDS + 2
+def _struct_of(structure: type[ctypes.Structure]) -> tuple[struct.Struct, dict[str, int]]:
+    """``structure`` as a native ``struct`` record (same sizes and alignment as ctypes), and
+    the index of each field's first value in an unpacked record."""
+    fmt, index, i = "@", {}, 0
+    for name, ctype in structure._fields_:
+        n = getattr(ctype, "_length_", 1)
+        element = ctype._type_ if hasattr(ctype, "_length_") else ctype
+        fmt += f"{n}{element._type_}"
+        index[name] = i
+        i += n
+    return struct.Struct(fmt), index
 
+
+#: ``Slot`` as one ``struct`` record, derived from its ctypes fields, for reading every slot
+#: in one C call (the bench's idle check reads them several times a tick; ctypes field
+#: access costs about 20x more)
+SLOT_STRUCT, SLOT_INDEX = _struct_of(Slot)
+SLOT_TID, SLOT_PID, SLOT_STATE, SLOT_SEQ = (SLOT_INDEX[f] for f in ("tid", "pid", "state", "seq"))
+SLOT_DEADLINE, SLOT_CPU, SLOT_BLOCKS = (SLOT_INDEX[f] for f in ("deadline_ns", "cpu_ns", "blocks"))
+SLOT_SEEN_EPOCH, SLOT_NKEYS = SLOT_INDEX["seen_epoch"], SLOT_INDEX["nkeys"]
+SLOT_KEY_RDEV, SLOT_KEY_EVENTS = SLOT_INDEX["key_rdev"], SLOT_INDEX["key_events"]
+SLOT_SPIN_YIELDS, SLOT_CLOCK_READS = SLOT_INDEX["spin_yields"], SLOT_INDEX["clock_reads"]
+SLOT_WAIT_KIND = SLOT_INDEX["wait_kind"]
 
 def rdev_key(st_rdev: int) -> int:
     """A character device number as the shim publishes it: ``(major << 20) | minor``."""

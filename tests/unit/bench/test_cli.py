@@ -56,27 +56,30 @@ def test_mode_names_match_the_bench() -> None:
 _HEAVY = ("matplotlib", "dask", "distributed", "scipy", "control", "jsonschema", "google.protobuf")
 
 
+def _after_cli(argv: list[str], expression: str) -> tuple[str, str, str]:
+    """Run ``hil <argv>`` in a fresh interpreter, then print ``expression`` there: (its
+    value, the whole stdout, stderr)."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom hil.cli import app\ntry:\n    app(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+            f"print({expression})")
+    out = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=120)
+    return out.stdout.strip().splitlines()[-1], out.stdout, out.stderr
+
+
 @pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["run", "--mode", "fast"], ["run", "no-such-rig"],
                                   ["timing", "no-such.mcap"], ["report", "no-such.mcap"], ["replay", "no-such.mcap"],
                                   ["recover", "no-such.mcap"], ["campaign", "no-such.toml"], ["perf", "--help"]])
 def test_help_and_argument_errors_import_nothing_heavy(argv: list[str]) -> None:
     # start-up time of `hil` (issue 12): heavy packages only where a command uses them
-    import subprocess
-    import sys
-
-    code = ("import sys\nfrom hil.cli import app\ntry:\n    app(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
-            f"print(sorted(m for m in sys.modules if m.split('.')[0] in {_HEAVY!r} or m in {_HEAVY!r}))")
-    out = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=120)
-    assert out.stdout.strip().splitlines()[-1] == "[]", (out.stdout, out.stderr)
+    last, stdout, stderr = _after_cli(
+        argv, f"sorted(m for m in sys.modules if m.split('.')[0] in {_HEAVY!r} or m in {_HEAVY!r})")
+    assert last == "[]", (stdout, stderr)
 
 
 @pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["perf", "--help"], ["campaign", "--help"]])
 def test_help_does_not_import_asyncio(argv: list[str]) -> None:
     # a third of `hil.cli`'s own import time was asyncio, which only the commands that run use
-    import subprocess
-    import sys
-
-    code = ("import sys\nfrom hil.cli import app\ntry:\n    app(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
-            "print('asyncio' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=120)
-    assert out.stdout.strip().splitlines()[-1] == "False", (out.stdout, out.stderr)
+    last, stdout, stderr = _after_cli(argv, "'asyncio' in sys.modules")
+    assert last == "False", (stdout, stderr)
