@@ -19,7 +19,7 @@ Sim time is an ``int`` of nanoseconds everywhere.
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 
 @dataclass(frozen=True)
@@ -27,6 +27,12 @@ class DeviceEvent:
     """Base of every event record a device emits. ``t_ns`` is sim time."""
 
     t_ns: int
+
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        # Pickled by field, rebuilt through __init__: compiled (mypyc) records have no
+        # __dict__, and the default reduction would restore them through the frozen
+        # __setattr__. Events go to the recorder's process pickled (hil/record/process.py).
+        return type(self), tuple(getattr(self, f.name) for f in fields(self))
 
 
 class ByteDevice:

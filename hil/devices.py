@@ -29,6 +29,10 @@ GOTO_MEASUREMENT = 0x10  #: Xbus MID
 RNG_STREAMS = ("plant", "imu", "analog", "ppm", "esc", "xbee_vehicle", "xbee_ground", "link", "faults", "vibration")
 
 EventSink = Callable[[str, DeviceEvent], None]
+Quat4 = tuple[float, float, float, float]
+Vec3 = tuple[float, float, float]
+#: ``(t_ns, q_NS, omega_S_radps, f_S_mps2) -> (q_NS, omega_S_radps, f_S_mps2)``: sensor frame S
+MotionTransform = Callable[[int, Quat4, Vec3, Vec3], tuple[Quat4, Vec3, Vec3]]
 
 
 class WireFilter(Protocol):
@@ -129,6 +133,9 @@ class DeviceSet:
         self._rc_want: int | None = None
         #: timing stress: hold every ADC bridge reply back this long (wall ns; hil/stress.py)
         self.adc_reply_delay_ns = 0
+        #: IMU sensor faults: ``(t_ns, q_NS, omega_S_radps, f_S_mps2) -> the same, transformed``,
+        #: applied to the motion handed to the XSENS model (None: the true motion)
+        self.imu_motion: MotionTransform | None = None
         #: PPM frames generated since the run logger last took them (PpmFrame records)
         self.rc_frames: list[object] = []
 
@@ -318,7 +325,10 @@ class DeviceSet:
             dv_f, dv_w = self.imu.vibration_S(s.vib_f_S, s.vib_omega_S, (t_ns - s.t_ns) * 1e-9)
             f = (f[0] + dv_f[0], f[1] + dv_f[1], f[2] + dv_f[2])
             w = (w[0] + dv_w[0], w[1] + dv_w[1], w[2] + dv_w[2])
-        self.imu.set_motion(s.q_NS, w, f)
+        q = s.q_NS
+        if self.imu_motion is not None:  # IMU sensor faults (hil/faults/env.py), before the device's own errors
+            q, w, f = self.imu_motion(t_ns, q, w, f)
+        self.imu.set_motion(q, w, f)
         self.imu.advance(t_ns)
         out = self.imu.take_output()
         events = self.imu.take_events()

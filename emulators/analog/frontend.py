@@ -33,6 +33,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from mypy_extensions import mypyc_attr
 
 from emulators.analog.adxl335 import Adxl335
 from emulators.analog.conditioning import (
@@ -73,6 +74,7 @@ class AccelFault:
     saturate: bool = False
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class AnalogFrontEnd:
     """Sensors and conditioning for the four MCP3204 inputs."""
 

@@ -356,7 +356,7 @@ class Maestro(ByteDevice):
 
     def _error(self, bit: ErrorBit, reason: str) -> None:
         self.errors |= int(bit)
-        self.counters[f"error_{bit.name.lower()}"] += 1
+        self.counters[f"error_{str(bit.name).lower()}"] += 1  # one bit: always named
         self._event(ProtocolError(self._t_ns, int(bit), reason))
         if self.params.home_on_error:
             self._go_home()

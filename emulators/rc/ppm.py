@@ -18,13 +18,24 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
+from mypy_extensions import mypyc_attr
 
 from emulators.rc.params import PpmParams
-from emulators.rc.script import CENTRE_US, StickScript
+from emulators.rc.script import CENTRE_US
 
 NS_PER_US = 1_000
+
+
+class Sticks(Protocol):
+    """What the generator reads: a :class:`~emulators.rc.script.StickScript`, or anything
+    that answers the same two questions (the bench's RC-loss fault wraps the script)."""
+
+    def signal_present(self, t_ns: int) -> bool: ...
+
+    def pulses_us(self, t_ns: int) -> tuple[int, ...]: ...
 
 
 @dataclass(frozen=True)
@@ -51,6 +62,7 @@ class _Glitch:
     channel: int
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class PpmGenerator:
     """Edges of the receiver's PPM output for a given stick script.
 
@@ -58,7 +70,7 @@ class PpmGenerator:
     :meth:`edges_until` with non-decreasing times to collect the edges due so far.
     """
 
-    def __init__(self, params: PpmParams, rng: np.random.Generator, script: StickScript) -> None:
+    def __init__(self, params: PpmParams, rng: np.random.Generator, script: Sticks) -> None:
         self.params = params
         self.rng = rng
         self.script = script

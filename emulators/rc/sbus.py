@@ -203,9 +203,12 @@ class SbusConverter(ByteDevice):
         pulses = self._pulses_us
         channels = tuple(pwm_to_raw(pulses[i] if i < len(pulses) else p.default_us)
                          for i in range(SbusWire.N_CHANNELS))
-        age = None if self._last_good_ns is None else t_ns - self._last_good_ns
-        failsafe = age is None or age >= p.failsafe_after_us * NS_PER_US
-        lost = failsafe or age > p.frame_lost_after_us * NS_PER_US
+        if self._last_good_ns is None:  # no good frame yet
+            failsafe = lost = True
+        else:
+            age_ns = t_ns - self._last_good_ns
+            failsafe = age_ns >= p.failsafe_after_us * NS_PER_US
+            lost = failsafe or age_ns > p.frame_lost_after_us * NS_PER_US
         return SbusFrame(channels, frame_lost=lost, failsafe=failsafe, end_byte=p.end_byte)
 
     def advance(self, t_ns: int) -> None:

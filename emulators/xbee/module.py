@@ -98,6 +98,15 @@ class XBeeModule(ByteDevice):
     """An XBee-PRO 802.15.4 module; ``rng`` is reserved for module-side randomness (the
     link draws losses and RSSI noise from its own generator)."""
 
+    _text: _Text
+    _tx_buf: bytearray
+    _last_rx_ns: int
+    _plus: int
+    _plus_first_ns: int
+    _plus_last_ns: int
+    _cmd_line: bytearray
+    _cmd_deadline_ns: int
+
     def __init__(self, params: XBeeParams, rng: np.random.Generator, name: str = "telemetry") -> None:
         super().__init__()
         self.name = name

@@ -19,6 +19,8 @@ import struct
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
+from mypy_extensions import mypyc_attr
+
 from emulators.xsens import legacy
 from emulators.xsens.defs import (
     XDI,
@@ -125,6 +127,7 @@ def _clip(v: Vec3, limit: float, flags: tuple[int, int, int]) -> tuple[Vec3, int
 _MAX_PACKERS = 64
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class SampleBuilder:
     """Turns measured samples into payloads; holds the slowly varying environment."""
 

@@ -12,9 +12,9 @@ pushes the combination to the device whenever it changes:
 * the latest stuck value wins.
 
 The IMU sensor faults transform the motion the bench hands to the XSENS model: while any
-is active, ``devices.imu.set_motion`` is wrapped (an instance attribute shadowing the
-method) and removed again when the last one ends, so the device's own error model
-(noise, bias random walk, range clipping with its status flags) still applies on top.
+is active, ``devices.imu_motion`` holds their composition (removed again when the last one
+ends), so the device's own error model (noise, bias random walk, range clipping with its
+status flags) still applies on top.
 RC signal loss wraps the PPM generator's stick script the same way (``signal_present``
 false inside the loss windows).
 """
@@ -46,42 +46,34 @@ class MotionStage(Protocol):
 
 
 class ImuMotion:
-    """Wraps ``devices.imu.set_motion`` while IMU sensor faults are active."""
+    """Composes the active IMU sensor faults into ``devices.imu_motion``."""
 
     def __init__(self, devices: DeviceSet) -> None:
         self._devices = devices
         self._stages: list[MotionStage] = []
-        self._original: Callable[[Sequence[float], Sequence[float], Sequence[float]], None] | None = None
 
     def add(self, stage: MotionStage) -> None:
         self._stages.append(stage)
         self._stages.sort(key=lambda s: s.stage)  # stable: same stage keeps activation order
-        if self._original is None:
-            imu = self._devices.imu
-            self._original = imu.set_motion
-            imu.set_motion = self._set_motion  # type: ignore[method-assign]
+        self._devices.imu_motion = self._transform
 
     def remove(self, stage: MotionStage) -> None:
         self._stages.remove(stage)
-        if not self._stages and self._original is not None:
-            imu = self._devices.imu
-            if imu.__dict__.get("set_motion") == self._set_motion:
-                del imu.set_motion
-            self._original = None
+        if not self._stages:
+            self._devices.imu_motion = None
 
     @property
     def installed(self) -> bool:
-        return self._original is not None
+        return self._devices.imu_motion is not None
 
-    def _set_motion(self, q_NS: Sequence[float], omega_S_radps: Sequence[float], f_S_mps2: Sequence[float]) -> None:
-        t = self._devices.t_ns
+    def _transform(self, t_ns: int, q_NS: Sequence[float], omega_S_radps: Sequence[float],
+                   f_S_mps2: Sequence[float]) -> tuple[Quat, Vec3, Vec3]:
         q: Quat = (float(q_NS[0]), float(q_NS[1]), float(q_NS[2]), float(q_NS[3]))
         w: Vec3 = (float(omega_S_radps[0]), float(omega_S_radps[1]), float(omega_S_radps[2]))
         f: Vec3 = (float(f_S_mps2[0]), float(f_S_mps2[1]), float(f_S_mps2[2]))
         for s in self._stages:
-            q, w, f = s.transform(t, q, w, f)
-        assert self._original is not None
-        self._original(q, w, f)
+            q, w, f = s.transform(t_ns, q, w, f)
+        return q, w, f
 
 
 class _Composer:

@@ -10,6 +10,8 @@ density follows from the ideal gas law.
 
 from __future__ import annotations
 
+from mypy_extensions import mypyc_attr
+
 from hil.plant.params import EnvironmentParams
 
 #: ISA sea-level constants (U.S. Standard Atmosphere 1976 / ISO 2533).
@@ -48,6 +50,7 @@ def air_density_kgpm3(p_Pa: float, T_K: float) -> float:
     return p_Pa / (AIR_R_J_PER_KG_K * T_K)
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class Atmosphere:
     """The air around the vehicle, as a function of height above the field (m).
 

@@ -215,5 +215,6 @@ class DrydenFilter:
             self._raw = self._rng.standard_normal((256, N_STATES))
             self._noise = self._raw @ self._l.T
             self._next = 0
+        assert self._x is not None  # set by reset()
         self._x = self._phi @ self._x + self._noise[self._next]
         self._next += 1

@@ -30,7 +30,7 @@ from hil.plant.atmosphere import ZERO_C_K, Atmosphere
 from hil.plant.battery import Battery
 from hil.plant.dynamics import DynamicsConstants, Inputs, make_derivative, rk4_step
 from hil.plant.params import GustShape, PlantParams
-from hil.plant.records import PlantState, SensorTruth
+from hil.plant.records import PlantState, SensorTruth, VibrationTone
 from hil.plant.rigid_body import MassProperties, base_mass_properties, with_payload
 from hil.plant.rotors import lag_step, rotor_geometry
 from hil.plant.vibration import RotorImbalance
@@ -362,7 +362,9 @@ class Plant:
         h = ground.origin_height_m(x, self._mass.cg_B_m)
         port_above_ground = h + self._gear_m - quat.rotate(q, m.baro_position_B_m)[2]
         total_thrust = sum(self._thrusts())
-        vib_f_S = vib_w_S = vib_f_acc_B = ()
+        vib_f_S: tuple[VibrationTone, ...] = ()
+        vib_w_S: tuple[VibrationTone, ...] = ()
+        vib_f_acc_B: tuple[VibrationTone, ...] = ()
         if self._vib is not None:
             vib_f_S, vib_w_S, vib_f_acc_B = self._vib.tones((x[13], x[14], x[15], x[16]))
         return SensorTruth(

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import NamedTuple
 
 Vec3 = tuple[float, float, float]
@@ -31,6 +31,10 @@ class PlantState:
     mass_kg: float
     #: Altitude of the body origin above its resting height on the field (= -p_N_m[2]).
     h_m: float
+
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        # by field through __init__: a compiled (mypyc) frozen record has no __dict__
+        return type(self), tuple(getattr(self, f.name) for f in fields(self))
 
 
 class VibrationTone(NamedTuple):
@@ -76,3 +80,7 @@ class SensorTruth:
     vib_f_S: tuple[VibrationTone, ...] = ()
     vib_omega_S: tuple[VibrationTone, ...] = ()
     vib_f_acc_B: tuple[VibrationTone, ...] = ()
+
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        # by field through __init__: a compiled (mypyc) frozen record has no __dict__
+        return type(self), tuple(getattr(self, f.name) for f in fields(self))

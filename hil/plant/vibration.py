@@ -103,7 +103,7 @@ class RotorImbalance:
         (body FRD, m); ``R_SB`` turns body axes into the IMU's sensor axes."""
         coef = []
         for h, s in zip(hubs_B_m, self._s, strict=True):
-            parts: list[list[float]] = [[], [], []]
+            parts: list[list[tuple[float, ...]]] = [[], [], []]
             # F = Re{(e_x - j s e_y) e^(j theta)}: re from e_x, im from -s e_y
             for unit in ((1.0, 0.0, 0.0), (0.0, -s, 0.0)):
                 alpha = _matvec(inverse_inertia_B, _cross(h, unit))
@@ -111,9 +111,9 @@ class RotorImbalance:
                 ai, aa = _cross(alpha, imu_B_m), _cross(alpha, acc_B_m)
                 f_imu = _matvec(R_SB, (lin[0] + ai[0], lin[1] + ai[1], lin[2] + ai[2]))
                 f_acc = (lin[0] + aa[0], lin[1] + aa[1], lin[2] + aa[2])
-                parts[0].append(f_imu)  # type: ignore[arg-type]
-                parts[1].append(f_acc)  # type: ignore[arg-type]
-                parts[2].append(_matvec(R_SB, alpha))  # type: ignore[arg-type]
+                parts[0].append(f_imu)
+                parts[1].append(f_acc)
+                parts[2].append(_matvec(R_SB, alpha))
             coef.append(_Coefficients(*(tuple(p[0]) + tuple(p[1]) for p in parts)))  # type: ignore[arg-type]
         self._coef = tuple(coef)
 

@@ -33,9 +33,10 @@ class ReferenceFrontEnd(AnalogFrontEnd):
 
     def __init__(self, params: AnalogParams, rng: np.random.Generator) -> None:
         super().__init__(params, rng)
-        self._normals = rng  # type: ignore[assignment]  # single draws
+        single = NormalStream(rng, block=1)  # one Generator draw per normal
+        self._normals = single
         for noise in self._noise:
-            noise._rng = rng
+            noise._rng = single
 
     def update(self, t_ns: int, p_Pa: float, f_B_mps2: Sequence[float], T_C: float) -> None:
         u = self._static(p_Pa, f_B_mps2, T_C)

@@ -75,9 +75,9 @@ async def test_start_now_and_stop(frig: Rig) -> None:
     assert counters == [0, 1, 4, 5]
     assert b.schedule.stop(h, b.t_ns) == {}  # already ended: nothing to do
     timed = b.schedule.start_now("imu.bias", b.t_ns, duration_s=0.005, gyro_bias_S_radps=[0.1, 0, 0])
-    assert timed.id == 2 and "set_motion" in b.devices.imu.__dict__
+    assert timed.id == 2 and b.devices.imu_motion is not None
     await b.tick(3)
-    assert b.schedule.active() == [] and "set_motion" not in b.devices.imu.__dict__
+    assert b.schedule.active() == [] and b.devices.imu_motion is None
     with pytest.raises(ConfigError, match=r"start_now\('wire.silence'\): \(wire.silence\) port: no port 'x'"):
         b.schedule.start_now("wire.silence", b.t_ns, port="x")
     with pytest.raises(ConfigError, match="unknown fault kind 'nope'"):
@@ -100,11 +100,11 @@ async def test_finish_restores_every_device(rig: Rig) -> None:
     ]:
         b.schedule.start_now(kind, t, **params)
     await b.tick(4)
-    assert type(b.devices.ppm.script) is not StickScript and "set_motion" in b.devices.imu.__dict__
+    assert type(b.devices.ppm.script) is not StickScript and b.devices.imu_motion is not None
     b.schedule.finish(b.t_ns)
     await b.tick(25)  # the delay releases what it held, then leaves the port
     d = b.devices
-    assert "set_motion" not in d.imu.__dict__ and type(d.ppm.script) is StickScript
+    assert d.imu_motion is None and type(d.ppm.script) is StickScript
     assert d.wire_filters == {} and d.analog.accel_fault == AccelFault() and d.mcp.vref_V == 5.0
     assert not d.escs[1]._stuck and b.schedule.env.rotors.factors() == [1.0] * 4
     assert b.schedule.env.link_loss.combined() == rig.telemetry.link.loss_probability
@@ -194,7 +194,7 @@ class Overlaps(RuleBasedStateMachine):
     @invariant()
     def wrappers_only_while_needed(self) -> None:
         d = self.b.devices
-        assert ("set_motion" in d.imu.__dict__) == bool(self._of("imu.bias"))
+        assert (d.imu_motion is not None) == bool(self._of("imu.bias"))
         if self._of("rc.signal_loss"):  # (a closed window lingers until the sweep of the next tick)
             assert type(d.ppm.script) is not StickScript and d.ppm.script.signal_present(self.t_ns) is False
         assert set(d.wire_filters) == {p["port"] for p in self._of("wire.silence")}

@@ -32,6 +32,7 @@ import numpy as np
 import pytest
 
 from hil.plant import AeroParams, PlantParams, RotorParams, WindParams
+from hil.plant.atmosphere import Atmosphere
 from hil.plant.params import EnvironmentParams
 from hil.plant.rotors import rotor_geometry
 from tests.unit.plant.support import make_plant
@@ -137,6 +138,17 @@ def test_forces_and_moments_match_rotorpy(v_N, w_B, rpy_deg, omegas, wind_N, bod
     np.testing.assert_allclose(T @ np.array(alpha_B), s_dot[10:13], rtol=1e-9, atol=1e-9)
 
 
+class _FixedDensity(Atmosphere):
+    """Our atmosphere with the density held at one value (RotorPy has none)."""
+
+    def __init__(self, params: EnvironmentParams, sigma: float) -> None:
+        super().__init__(params)
+        self._sigma = sigma
+
+    def density_ratio(self, h_field_m: float) -> float:
+        return self._sigma
+
+
 def test_open_loop_5s_trajectory_matches_rotorpy() -> None:
     """Constant, slightly uneven rotor speeds in a side wind: the vehicle climbs, drifts,
     yaws and tips over; both simulators must agree for 5 s."""
@@ -148,7 +160,7 @@ def test_open_loop_5s_trajectory_matches_rotorpy() -> None:
     sigma = _sigma(plant)
     # RotorPy has no atmosphere: hold our density at its 100 m value (ours follows the
     # height, 1e-4 per m, which over the 14 m this flight falls would move it ~0.2 m)
-    plant._atmo.density_ratio = lambda h_m: sigma  # type: ignore[method-assign]
+    plant._atmo = _FixedDensity(plant._atmo.params, sigma)
     om_max = plant.omega_max_radps
     vehicle = _rotorpy_vehicle(p, sigma)
     state = _rotorpy_state(plant, wind_N)

@@ -44,35 +44,35 @@ class ReferencePpm(PpmGenerator):
             self._pending.append(PpmEdge(max(0, t0 + int(round(t_rel))), level))  # noqa: RUF046 - verbatim
 
 
-class ReferenceCapture(CaptureFrontEnd):
-    """One ``CaptureRecord`` and ``pack_record`` per capture (the previous code)."""
-
-    def feed_edges(self, edges: Iterable[PpmEdge]) -> None:
-        p = self.params
-        for edge in edges:
-            if edge.t_ns < self._last_edge_ns:
-                self.counters["edges_out_of_order"] += 1
-                continue
-            self._last_edge_ns = edge.t_ns
-            self.counters["edges"] += 1
-            if (self._last_capture_ns is not None
-                    and edge.t_ns - self._last_capture_ns < p.min_capture_interval_us * NS_PER_US):
-                self._lose(edge.t_ns, "latency")
-                continue
-            while self._uart_starts and self._uart_starts[0] <= edge.t_ns:
-                self._uart_starts.popleft()
-            if len(self._uart_starts) >= p.fifo_records:
-                self._lose(edge.t_ns, "fifo_full")
-                continue
-            self._last_capture_ns = edge.t_ns
-            rec = CaptureRecord(self._seq, edge.level, self._overrun, self.timer_us(edge.t_ns))
-            self._seq = (self._seq + 1) & 0xFF
-            self._overrun = False
-            start = max(edge.t_ns, self._uart_free_ns)
-            self._uart_free_ns = start + self._record_ns
-            if start > edge.t_ns:
-                self._uart_starts.append(start)
-            self._scheduled.append((edge.t_ns, pack_record(rec)))
+def reference_feed_edges(cap: CaptureFrontEnd, edges: Iterable[PpmEdge]) -> None:
+    """``CaptureFrontEnd.feed_edges`` as it was: one ``CaptureRecord`` and ``pack_record``
+    per capture, acting on ``cap``'s state. (A function, not a subclass: the device classes
+    are compiled, and compiled devices take no Python subclasses.)"""
+    p = cap.params
+    for edge in edges:
+        if edge.t_ns < cap._last_edge_ns:
+            cap.counters["edges_out_of_order"] += 1
+            continue
+        cap._last_edge_ns = edge.t_ns
+        cap.counters["edges"] += 1
+        if (cap._last_capture_ns is not None
+                and edge.t_ns - cap._last_capture_ns < p.min_capture_interval_us * NS_PER_US):
+            cap._lose(edge.t_ns, "latency")
+            continue
+        while cap._uart_starts and cap._uart_starts[0] <= edge.t_ns:
+            cap._uart_starts.popleft()
+        if len(cap._uart_starts) >= p.fifo_records:
+            cap._lose(edge.t_ns, "fifo_full")
+            continue
+        cap._last_capture_ns = edge.t_ns
+        rec = CaptureRecord(cap._seq, edge.level, cap._overrun, cap.timer_us(edge.t_ns))
+        cap._seq = (cap._seq + 1) & 0xFF
+        cap._overrun = False
+        start = max(edge.t_ns, cap._uart_free_ns)
+        cap._uart_free_ns = start + cap._record_ns
+        if start > edge.t_ns:
+            cap._uart_starts.append(start)
+        cap._scheduled.append((edge.t_ns, pack_record(rec)))
 
 
 def test_golden_record() -> None:
@@ -104,7 +104,7 @@ def test_ppm_and_capture_match_the_reference(
                           Sine(t_s=0.0, duration_s=2.0, channel=1, amplitude_us=300.0, freq_hz=2.7, fade_s=0.1)])
     fast_rng, ref_rng = np.random.default_rng(seed), np.random.default_rng(seed)
     fast_ppm, ref_ppm = PpmGenerator(ppm_params, fast_rng, script), ReferencePpm(ppm_params, ref_rng, script)
-    fast_cap, ref_cap = CaptureFrontEnd(cap_params), ReferenceCapture(cap_params)
+    fast_cap, ref_cap = CaptureFrontEnd(cap_params), CaptureFrontEnd(cap_params)
     for kind, t, a, b in faults:
         for g in (fast_ppm, ref_ppm):
             if kind == 0:
@@ -121,7 +121,7 @@ def test_ppm_and_capture_match_the_reference(
         edges = fast_ppm.edges_until(t_ns)
         assert edges == ref_ppm.edges_until(t_ns)
         fast_cap.feed_edges(edges)
-        ref_cap.feed_edges(edges)
+        reference_feed_edges(ref_cap, edges)
         fast_cap.advance(t_ns)
         ref_cap.advance(t_ns)
         assert fast_cap.take_output() == ref_cap.take_output()

@@ -135,8 +135,7 @@ def test_streaming_devices_send_the_same_bytes_and_events(
     entries: list[tuple[int, int]], seed: int, motions: list[tuple]
 ) -> None:
     hosts = [Host.make(XsensParams(), seed=seed), Host.make(XsensParams(), seed=seed)]
-    per_item = hosts[1].dev._builder
-    per_item.__class__ = _PerItem
+    hosts[1].dev._builder = _PerItem(XsensParams())  # fresh, as the device's own was
     config = b"".join(struct.pack(">HH", x, f) for x, f in entries)
     for h in hosts:
         h.dev.receive(encode_frame(MID.GOTO_CONFIG), -9_000_000)
