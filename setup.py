@@ -13,6 +13,8 @@
 from __future__ import annotations
 
 import os
+import sys
+import sysconfig
 from pathlib import Path
 
 from setuptools import Extension, setup
@@ -41,8 +43,22 @@ shim = Extension(
     libraries=["dl"],
 )
 
+
+def compile_wanted() -> bool:
+    """mypyc unless told otherwise, or unless this Python has no C headers (a distribution's
+    Python without its -dev package): then the sources run interpreted, and we say so."""
+    if os.environ.get("HIL_PURE_PYTHON", "") in ("1", "true", "yes"):
+        return False
+    headers = Path(sysconfig.get_paths()["include"]) / "Python.h"
+    if not headers.exists():
+        print(f"warning: {headers} is missing (install python3-dev): the device models and "
+              "the plant run interpreted, about 1.5x slower (docs/performance.md)", file=sys.stderr)
+        return False
+    return True
+
+
 extensions = [shim]
-if os.environ.get("HIL_PURE_PYTHON", "") not in ("1", "true", "yes"):
+if compile_wanted():
     from mypyc.build import mypycify
 
     # The build environment has numpy and pydantic for their types (pyproject.toml

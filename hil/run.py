@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import tomli_w
 
-from hil import __version__, clock
+from hil import __version__, clock, native
 from hil.attach import follow_device_rates, open_attached, refuse_lockstep, resolve_attachments
 from hil.bench import BootError, Clock, EndReason, Mode, TickLoop
 from hil.config import ConfigError, load_toml
@@ -477,6 +477,7 @@ def _metadata(rig: Rig, scenario: Scenario, seed: int, mode: Mode, duration_ns: 
         "git_dirty": str(bool(dirty)).lower(),
         "python": platform.python_version(),
         "host": platform.node(),
+        "device_models": native.describe(),
     }
 
 
