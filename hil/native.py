@@ -9,6 +9,8 @@ used (the MCAP's metadata) and ``hil perf`` prints it: the bench's CPU per tick 
 from __future__ import annotations
 
 import importlib
+import importlib.util
+from pathlib import Path
 
 #: one module per compiled package: each package is compiled whole or not at all
 PROBES = {"emulators": "emulators.base", "hil.plant": "hil.plant.plant"}
@@ -28,3 +30,34 @@ def describe() -> str:
     if not any(state.values()):
         return "interpreted (built with HIL_PURE_PYTHON=1 or without Python headers)"
     return ", ".join(f"{p} {'compiled' if c else 'interpreted'}" for p, c in state.items())
+
+
+def built_at() -> float | None:
+    """When the compiled code was built (its shared library's mtime, s), None if it is not."""
+    spec = importlib.util.find_spec("hil_native__mypyc")
+    return None if spec is None or spec.origin is None else Path(spec.origin).stat().st_mtime
+
+
+def stale(built: float | None = None) -> list[Path]:
+    """The sources of compiled modules that changed after the build (an edit, a ``git pull``):
+    until ``pip install -e .`` rebuilds, Python keeps running the old compiled code, not
+    them. Empty when nothing is compiled. ``built``: the build's time (default: ``built_at()``)."""
+    built = built_at() if built is None else built
+    if built is None:
+        return []
+    out = []
+    for package, module in PROBES.items():
+        if not compiled()[package]:
+            continue
+        root = Path(str(importlib.import_module(package).__file__)).parent
+        for source in sorted(root.rglob("*.py")):
+            if source.stat().st_mtime > built and any(source.parent.glob(f"{source.stem}.*.so")):
+                out.append(source)
+    return out
+
+
+def stale_message(sources: list[Path]) -> str:
+    names = ", ".join(str(p) for p in sources[:3]) + (f" and {len(sources) - 3} more" if len(sources) > 3 else "")
+    return (f"{names} changed after the compiled device models were built: Python runs the old "
+            "compiled code. Rebuild with `pip install -e .` (HIL_PURE_PYTHON=1 to keep them "
+            "interpreted while you work on them).")

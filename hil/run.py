@@ -299,6 +299,9 @@ async def run_flight_async(
     for port in attached.values():
         for text in port.notes:
             note(text)
+    stale = native.stale()
+    if stale:  # the run is the old build's, not the sources': say so in its summary and log
+        note(native.stale_message(stale))
 
     vt: VirtualTime | None = None
     clock_note = ""

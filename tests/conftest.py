@@ -13,6 +13,16 @@ import pytest
 SYSTEM_TIMEOUT_S = 900
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    # The compiled device models and plant shadow their sources (setup.py): after an edit
+    # the suite would test the old build. Stop, and say how to rebuild.
+    from hil import native
+
+    sources = native.stale()
+    if sources:
+        raise pytest.UsageError(native.stale_message(sources))
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if item.get_closest_marker("system") is not None and item.get_closest_marker("timeout") is None:
