@@ -52,7 +52,7 @@ def compile_wanted() -> bool:
     headers = Path(sysconfig.get_paths()["include"]) / "Python.h"
     if not headers.exists():
         print(f"warning: {headers} is missing (install python3-dev): the device models and "
-              "the plant run interpreted, about 1.5x slower (docs/performance.md)", file=sys.stderr)
+              "the plant run interpreted, about 1.3x the CPU per tick (docs/performance.md)", file=sys.stderr)
         return False
     return True
 
