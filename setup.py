@@ -5,7 +5,7 @@
 - The device models (``emulators``) and the plant (``hil.plant``), compiled by mypyc from
   their Python sources. The sources stay the reference: the same modules run interpreted
   when the build is told ``HIL_PURE_PYTHON=1`` (``HIL_PURE_PYTHON=1 pip install -e .``), and
-  tests/unit/bench/test_compiled.py runs a flight both ways and compares them bit for bit.
+  tests/system/test_compiled_equivalence.py flies a flight both ways and compares them bit for bit.
   Pydantic-validated parameter modules stay interpreted: pydantic builds their validators at
   import time from the class bodies.
 """

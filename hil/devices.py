@@ -19,6 +19,7 @@ import numpy as np
 from emulators.base import ByteDevice, DeviceEvent
 from hil import clock
 from hil.plant.plant import Plant
+from hil.plant.records import Quat, Vec3
 from hil.rig import Rig
 from hil.timing import LatencyStats
 from hil.transport.base import LineSettings, Port
@@ -29,10 +30,8 @@ GOTO_MEASUREMENT = 0x10  #: Xbus MID
 RNG_STREAMS = ("plant", "imu", "analog", "ppm", "esc", "xbee_vehicle", "xbee_ground", "link", "faults", "vibration")
 
 EventSink = Callable[[str, DeviceEvent], None]
-Quat4 = tuple[float, float, float, float]
-Vec3 = tuple[float, float, float]
 #: ``(t_ns, q_NS, omega_S_radps, f_S_mps2) -> (q_NS, omega_S_radps, f_S_mps2)``: sensor frame S
-MotionTransform = Callable[[int, Quat4, Vec3, Vec3], tuple[Quat4, Vec3, Vec3]]
+MotionTransform = Callable[[int, Quat, Vec3, Vec3], tuple[Quat, Vec3, Vec3]]
 
 
 class WireFilter(Protocol):

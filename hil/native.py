@@ -46,13 +46,13 @@ def stale(built: float | None = None) -> list[Path]:
     if built is None:
         return []
     out = []
-    for package, module in PROBES.items():
-        if not compiled()[package]:
+    for package, is_compiled in compiled().items():
+        if not is_compiled:
             continue
         root = Path(str(importlib.import_module(package).__file__)).parent
-        for source in sorted(root.rglob("*.py")):
-            if source.stat().st_mtime > built and any(source.parent.glob(f"{source.stem}.*.so")):
-                out.append(source)
+        # a compiled module is ``<stem>.<abi tag>.so`` beside its ``<stem>.py``
+        sources = sorted({so.with_name(so.name.split(".")[0] + ".py") for so in root.rglob("*.so")})
+        out += [p for p in sources if p.exists() and p.stat().st_mtime > built]
     return out
 
 

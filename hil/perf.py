@@ -53,10 +53,9 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
     from hil.bench import Mode
     from hil.plant.bench import measure_tick_cost
     from hil.record.perf import measure_recording
+    from hil import native
     from hil.rig import load_rig
     from hil.run import run_flight
-
-    from hil import native
 
     rep = PerfReport()
     rep.rows.append(("device models and plant", native.describe(), "setup.py; HIL_PURE_PYTHON=1 builds them interpreted"))
