@@ -33,9 +33,10 @@ import time
 from array import array
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 from hil import clock
-from hil.devices import DeviceSet, LatencySample
+from hil.devices import LatencySample
 from hil.timing import LATE_US, StreamingStats
 from hil.vtime.scheduler import ShimLost, VirtualClock, resolve_pending
 
@@ -101,6 +102,23 @@ class TickStats:
     clock: Clock = Clock.WALL
 
 
+class TickDevices(Protocol):
+    """What the tick loop drives (``hil.devices.DeviceSet``; tests drive fakes)."""
+
+    t_ns: int
+    on_esc_command: Callable[[int, int], None]
+
+    def advance_boot(self, t_ns: int) -> None: ...
+    def unconfigured(self) -> dict[str, str]: ...
+    def emit_rc_early(self, t_ns: int) -> None: ...
+    async def confirm_rc(self) -> None: ...
+    def actuate_and_step(self, t_ns: int) -> None: ...
+    def latch_analog(self, t_ns: int) -> None: ...
+    def emit_imu(self, t_ns: int) -> tuple[bool, bool]: ...
+    def note_latency(self, sample: LatencySample) -> None: ...
+    def finish_tick(self, t_ns: int) -> None: ...
+
+
 TickHook = Callable[[int, int], None]
 #: awaited before every lockstep tick on virtual time (the pytest plugin: tick only while the
 #: test awaits the bench, so sim time stands still while test code runs)
@@ -108,11 +126,11 @@ TickGate = Callable[[], Awaitable[None]]
 
 
 class TickLoop:
-    """Drives a :class:`DeviceSet` through boot and the tick loop."""
+    """Drives a :class:`~hil.devices.DeviceSet` through boot and the tick loop."""
 
     def __init__(
         self,
-        devices: DeviceSet,
+        devices: TickDevices,
         *,
         mode: Mode,
         tick_ns: int,
@@ -306,17 +324,16 @@ class TickLoop:
             devices.actuate_and_step(t_ns)
             devices.latch_analog(t_ns)
             vc.flush_written()  # everything but the sample is readable before the sample wakes it
-            self._awaiting, self._arrival = k, None
+            self._expect_command(k)
             emitted, due = devices.emit_imu(t_ns)
             vc.wake_due()  # a deadline at exactly t_k ends after the sample is there
             t_emit = clock.monotonic_ns()
             work = t_emit - work_start
             await self._settle()
-            self._awaiting = None
+            arrival = self._take_command()
             cpu_ns = vc.cpu_ns()
             if emitted:
                 stats.samples += 1
-            arrival = self._arrival
             # A sample a fault silenced asks nothing of the flight code: no miss without a
             # command; its watchdog's command, if one comes at this tick, is recorded.
             if (emitted or (due and arrival is not None)) and self.flight_running():
@@ -334,6 +351,18 @@ class TickLoop:
             stats.tick_cost_ns.append(work + clock.monotonic_ns() - after)
             stats.ticks += 1
         return EndReason.COMPLETED
+
+    # Methods, not assignments in the loop: compiled (mypyc), a read of ``self._arrival`` right
+    # after ``self._arrival = None`` in the same function is checked as None, although
+    # ``on_esc_command`` sets it while the loop awaits.
+    def _expect_command(self, k: int) -> None:
+        """Virtual time: sample ``k``'s ESC command, not yet arrived, is awaited."""
+        self._awaiting, self._arrival = k, None
+
+    def _take_command(self) -> tuple[int, int] | None:
+        """Virtual time: (host ns, sim ns) of the awaited sample's ESC command, if it came."""
+        self._awaiting = None
+        return self._arrival
 
     async def _run_wall(self) -> EndReason:
         loop = asyncio.get_running_loop()

@@ -16,8 +16,20 @@ from typing import Protocol
 
 import numpy as np
 
+from emulators.analog.frontend import AnalogFrontEnd
 from emulators.base import ByteDevice, DeviceEvent
+from emulators.buspirate.device import BusPirate
+from emulators.esc.esc import Esc
+from emulators.maestro.device import Maestro
+from emulators.mcp3204.device import Mcp3204
+from emulators.rc.capture import CaptureFrontEnd
+from emulators.rc.ppm import PpmGenerator, Sticks
+from emulators.rc.sbus import SbusConverter
+from emulators.xbee.link import RadioLink
+from emulators.xbee.module import XBeeModule
+from emulators.xsens.device import MtiDevice
 from hil import clock
+from hil.frozen import by_fields
 from hil.plant.plant import Plant
 from hil.plant.records import Quat, Vec3
 from hil.rig import Rig
@@ -53,6 +65,9 @@ class LatencySample:
     fc_cpu_ns: int | None = None  #: virtual time: the flight code's CPU time for it (host ns)
     lateness_ns: int | None = None  #: realtime: how late the tick that emitted it started (host ns)
 
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+
 
 def spawn_rngs(seed: int) -> dict[str, np.random.Generator]:
     """One Generator per component from the run seed (numpy SeedSequence.spawn)."""
@@ -63,26 +78,14 @@ def spawn_rngs(seed: int) -> dict[str, np.random.Generator]:
 class DeviceSet:
     """Plant + emulators for one run."""
 
-    def __init__(self, rig: Rig, *, seed: int, stick_script: object, with_spidriver: bool = False) -> None:
-        from emulators.analog.frontend import AnalogFrontEnd
-        from emulators.buspirate.device import BusPirate
-        from emulators.esc.esc import Esc
-        from emulators.maestro.device import Maestro
-        from emulators.mcp3204.device import Mcp3204
-        from emulators.rc.capture import CaptureFrontEnd
-        from emulators.rc.ppm import PpmGenerator
-        from emulators.rc.sbus import SbusConverter
-        from emulators.xbee.link import RadioLink
-        from emulators.xbee.module import XBeeModule
-        from emulators.xsens.device import MtiDevice
-
+    def __init__(self, rig: Rig, *, seed: int, stick_script: Sticks, with_spidriver: bool = False) -> None:
         self.rig = rig
         self.rngs = spawn_rngs(seed)
         self.plant = Plant(rig.plant, self.rngs["plant"], vibration_rng=self.rngs["vibration"])
         self.imu = MtiDevice(rig.imu, self.rngs["imu"])
         self.analog = AnalogFrontEnd(rig.analog, self.rngs["analog"])
         self.mcp = Mcp3204(rig.adc.mcp3204, self.analog.volts)
-        self.adc: ByteDevice = BusPirate(rig.adc.buspirate, self.mcp)
+        self.adc = BusPirate(rig.adc.buspirate, self.mcp)
         self.spidriver: ByteDevice | None = None
         if with_spidriver:
             from emulators.spidriver.device import SpiDriver
@@ -90,7 +93,7 @@ class DeviceSet:
             self.spidriver = SpiDriver(rig.adc.spidriver, Mcp3204(rig.adc.mcp3204, self.analog.volts))
         self.sticks = stick_script
         self.ppm = PpmGenerator(rig.rc.ppm, self.rngs["ppm"], stick_script)
-        self.rc: ByteDevice = (
+        self.rc: CaptureFrontEnd | SbusConverter = (
             CaptureFrontEnd(rig.rc.capture) if rig.rc.frontend == "capture" else SbusConverter(rig.rc.sbus)
         )
         self.maestro = Maestro(rig.esc.maestro)
@@ -114,7 +117,7 @@ class DeviceSet:
             self.by_port["adc-spidriver"] = self.spidriver
         self.ports: dict[str, Port] = {}
         self.t_ns = 0
-        self.throttle = (0.0, 0.0, 0.0, 0.0)
+        self.throttle: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
         self.sensors = self.plant.sensors()
         #: boot ends when the flight code itself has put the XSENS into measurement
         self.imu_started_by_host = False
@@ -256,9 +259,9 @@ class DeviceSet:
                 f"XSENS in {self.imu.state.name} state, waiting for the flight code's GoToMeasurement",
             )
         if name == "adc":
-            mode = getattr(self.adc, "mode", None)
-            ok = mode is not None and getattr(mode, "name", str(mode)).upper().startswith("SPI")
-            return ok, f"Bus Pirate in {getattr(mode, 'name', mode)} mode, waiting for binary SPI mode (20x00, 01)"
+            mode = self.adc.mode
+            ok = mode.name.upper().startswith("SPI")
+            return ok, f"Bus Pirate in {mode.name} mode, waiting for binary SPI mode (20x00, 01)"
         if name == "esc":
             ok = self.maestro.counters.get("commands", 0) > 0
             return ok, "no command received by the Maestro"
@@ -268,7 +271,11 @@ class DeviceSet:
     def actuate_and_step(self, t_ns: int) -> None:
         self.t_ns = t_ns
         self.maestro.advance(t_ns)
-        self.throttle = tuple(esc.update(t_ns, self.maestro.pulse_us(i, t_ns)) for i, esc in enumerate(self.escs))
+        m, e = self.maestro, self.escs
+        self.throttle = (
+            e[0].update(t_ns, m.pulse_us(0, t_ns)), e[1].update(t_ns, m.pulse_us(1, t_ns)),
+            e[2].update(t_ns, m.pulse_us(2, t_ns)), e[3].update(t_ns, m.pulse_us(3, t_ns)),
+        )
         if t_ns > self.plant.t_ns:
             self.plant.step(t_ns, self.throttle)
         self.sensors = self.plant.sensors()

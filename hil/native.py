@@ -1,6 +1,7 @@
-"""Whether this install runs the device models and the plant compiled.
+"""Whether this install runs the device models, the plant and the tick path compiled.
 
-``pip install`` compiles ``emulators`` and ``hil.plant`` with mypyc (setup.py) unless the build
+``pip install`` compiles ``emulators``, ``hil.plant`` and the modules of ``hil`` on the tick
+path with mypyc (setup.py) unless the build
 was told ``HIL_PURE_PYTHON=1`` or the Python had no C headers; their ``.py`` sources are the
 reference either way (tests/system/test_compiled_equivalence.py). Runs record which one they
 used (the MCAP's metadata) and ``hil perf`` prints it: the bench's CPU per tick depends on it.
@@ -12,8 +13,8 @@ import importlib
 import importlib.util
 from pathlib import Path
 
-#: one module per compiled package: each package is compiled whole or not at all
-PROBES = {"emulators": "emulators.base", "hil.plant": "hil.plant.plant"}
+#: one module per compiled part: each part is compiled whole or not at all
+PROBES = {"emulators": "emulators.base", "hil.plant": "hil.plant.plant", "hil tick path": "hil.devices"}
 
 
 def compiled() -> dict[str, bool]:
@@ -45,15 +46,12 @@ def stale(built: float | None = None) -> list[Path]:
     built = built_at() if built is None else built
     if built is None:
         return []
-    out = []
-    for package, is_compiled in compiled().items():
-        if not is_compiled:
-            continue
-        root = Path(str(importlib.import_module(package).__file__)).parent
-        # a compiled module is ``<stem>.<abi tag>.so`` beside its ``<stem>.py``
-        sources = sorted({so.with_name(so.name.split(".")[0] + ".py") for so in root.rglob("*.so")})
-        out += [p for p in sources if p.exists() and p.stat().st_mtime > built]
-    return out
+    # the top-level package of each compiled part, walked once
+    roots = {Path(str(importlib.import_module(PROBES[part].split(".")[0]).__file__)).parent
+             for part, is_compiled in compiled().items() if is_compiled}
+    # a compiled module is ``<stem>.<abi tag>.so`` beside its ``<stem>.py``
+    sources = sorted({so.with_name(so.name.split(".")[0] + ".py") for root in roots for so in root.rglob("*.so")})
+    return [p for p in sources if p.exists() and p.stat().st_mtime > built]
 
 
 def stale_message(sources: list[Path]) -> str:

@@ -15,8 +15,13 @@ are left out, as the batch criteria leave them out (hil/criteria.py).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+
+#: ``numpy.linalg.qr`` untyped: with ``mode="r"`` it returns the factor alone, while its
+#: stubs promise a ``QRResult`` tuple, which compiled code (mypyc) would check at run time
+_qr: Any = np.linalg.qr
 
 
 def finite_rows(values: np.ndarray) -> np.ndarray:
@@ -97,7 +102,7 @@ class SineFit:
         if t_s.size == 0:
             return
         a = np.column_stack([np.sin(self.w * t_s), np.cos(self.w * t_s), np.ones_like(t_s), v])
-        self.r = np.linalg.qr(np.vstack([self.r, a]), mode="r")
+        self.r = _qr(np.vstack([self.r, a]), mode="r")
         self.n += t_s.size
 
     def phase_rad(self) -> float:
@@ -106,5 +111,5 @@ class SineFit:
         # lstsq's default cut-off for small singular values is eps * max(rows, columns): the
         # rows of the whole window, not of this factor
         rcond = np.finfo(float).eps * max(self.n, 3)
-        (s, c, _), *_ = np.linalg.lstsq(design, rhs, rcond=rcond)
-        return math.atan2(float(c), float(s))
+        coef = np.linalg.lstsq(design, rhs, rcond=rcond)[0]  # (s, c, offset)
+        return math.atan2(float(coef[1]), float(coef[0]))

@@ -207,7 +207,7 @@ def load_rig(name_or_path: str | Path | None = None) -> Rig:
     check_keys(_table(data, "rc"), {"frontend", "ppm", "capture", "sbus"}, file=path, section="rc")
     check_keys(_table(data, "esc"), {"maestro", "esc"}, file=path, section="esc")
     check_keys(_table(data, "telemetry"), {"vehicle", "ground", "link"}, file=path, section="telemetry")
-    parts = {
+    parts: dict[str, Any] = {
         key: validate(_component_class(spec), _table(data, key), file=path, section=key)
         for key, spec in COMPONENTS.items()
     }

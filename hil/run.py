@@ -11,6 +11,7 @@ flight code, closes the ports and finalizes the MCAP.
 from __future__ import annotations
 
 import asyncio
+import traceback
 import contextlib
 import gc
 import json
@@ -372,7 +373,8 @@ async def run_flight_async(
         end, message = EndReason.INTERRUPTED, "interrupted (Ctrl-C)"
     except Exception as exc:  # a bench bug must still finalize the log
         end, message = EndReason.ERROR, f"bench error: {type(exc).__name__}: {exc}"
-        logger.event(max(loop.t_ns, 0), "run", "bench error", {"error": repr(exc)})
+        # the traceback goes into the log: a bench bug is found from the run it spoiled
+        logger.event(max(loop.t_ns, 0), "run", "bench error", {"error": repr(exc), "traceback": traceback.format_exc()})
     except BaseException as exc:  # KeyboardInterrupt, a test framework's timeout: finalize, then raise
         end, message = EndReason.INTERRUPTED, f"interrupted by {type(exc).__name__}: {exc}"
         raise

@@ -32,6 +32,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from hil.frozen import by_fields
+
 if TYPE_CHECKING:
     from hil.devices import LatencySample
 
@@ -44,6 +46,8 @@ LATE_US = 1000.0
 REALTIME_MAX_LATE_US = 25_000.0
 #: relative width of a StreamingStats bin: percentiles are within half of it (0.25 %)
 STREAM_RESOLUTION = 0.005
+#: the width of one histogram bin in log space
+_LOG_STEP = math.log1p(STREAM_RESOLUTION)
 
 
 class StreamingStats:
@@ -59,8 +63,6 @@ class StreamingStats:
     """
 
     __slots__ = ("_bins", "n", "total", "min", "max")
-
-    _LOG_STEP = math.log1p(STREAM_RESOLUTION)
 
     def __init__(self, values: Iterable[float] = ()) -> None:
         self._bins: dict[int, int] = {}
@@ -85,7 +87,7 @@ class StreamingStats:
         if v == 0.0:
             key = 0
         else:  # bins are +-(1 + k) for |v| in [(1+r)^k, (1+r)^(k+1)); k may be negative (|v| < 1)
-            k = math.floor(math.log(abs(v)) / self._LOG_STEP)
+            k = math.floor(math.log(abs(v)) / _LOG_STEP)
             key = (k + (1 << 40)) if v > 0 else -(k + (1 << 40))
         self._bins[key] = self._bins.get(key, 0) + count
 
@@ -110,7 +112,7 @@ class StreamingStats:
         if key == 0:
             return 0.0
         k = abs(key) - (1 << 40)
-        mid = math.exp((k + 0.5) * self._LOG_STEP)
+        mid = math.exp((k + 0.5) * _LOG_STEP)
         return mid if key > 0 else -mid
 
     def percentile(self, q: float) -> float:
@@ -184,6 +186,9 @@ class Stats:
     max: float
     mean: float
 
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+
     @staticmethod
     def of(values: np.ndarray) -> Stats:
         v = np.asarray(values, dtype=float)
@@ -235,6 +240,9 @@ class TimingReport:
     realtime: RealtimeVerdict | None = None  #: realtime runs only
     compute_source: str = "telemetry"  #: "cpu" (virtual time, scaled) or "telemetry"
 
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+
     def as_dict(self) -> dict[str, object]:
         return asdict(self)
 
@@ -248,6 +256,9 @@ class RealtimeVerdict:
     late_ticks: int  #: more than LATE_US late
     p99_us: float
     max_us: float
+
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
 
     @property
     def text(self) -> str:

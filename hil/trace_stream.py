@@ -28,6 +28,8 @@ from typing import Protocol
 
 import numpy as np
 
+from hil.frozen import by_fields
+
 #: ticks a chunk holds at least (one second at 400 Hz)
 CHUNK_TICKS = 400
 
@@ -47,6 +49,9 @@ class Chunk:
     rows: Mapping[str, np.ndarray]
     points: Mapping[str, tuple[np.ndarray, np.ndarray]]
     final: bool = False
+
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
 
 
 Subscriber = Callable[[Chunk], None]

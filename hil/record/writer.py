@@ -101,7 +101,7 @@ class _LeveledZstd:
 
 
 if getattr(_mcap_writer, "zstandard", None) is not None and not isinstance(_mcap_writer.zstandard, _LeveledZstd):
-    _mcap_writer.zstandard = _LeveledZstd(_mcap_writer.zstandard)
+    _mcap_writer.zstandard = _LeveledZstd(_mcap_writer.zstandard)  # type: ignore[assignment]
 
 
 def _record_size(record: Schema | Channel) -> int:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import ctypes
 import enum
 import struct
+from typing import Any
 
 MAGIC = 0x31545648  #: "HVT1"
 VERSION = 1
@@ -119,9 +120,10 @@ def _struct_of(structure: type[ctypes.Structure]) -> tuple[struct.Struct, dict[s
     """``structure`` as a native ``struct`` record (same sizes and alignment as ctypes), and
     the index of each field's first value in an unpacked record."""
     fmt, index, i = "@", {}, 0
-    for name, ctype in structure._fields_:
+    for field in structure._fields_:
+        name, ctype = field[0], field[1]  # (name, type) or (name, type, bit width)
         n = getattr(ctype, "_length_", 1)
-        element = ctype._type_ if hasattr(ctype, "_length_") else ctype
+        element: Any = getattr(ctype, "_type_") if hasattr(ctype, "_length_") else ctype
         fmt += f"{n}{element._type_}"
         index[name] = i
         i += n

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hil import clock
+from hil.frozen import by_fields
 from hil.vtime import abi
 
 #: CLOCK_MONOTONIC of the flight code at its start: far from any real uptime, so a clock
@@ -50,6 +51,9 @@ class ThreadView:
     spin_yields: int
     futex: bool = False  #: blocked on a lock/semaphore/condition/join of its own process
 
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+
 
 def _view(index: int, raw: tuple[int, ...]) -> ThreadView:
     """The :class:`ThreadView` of slot ``index`` from its ``abi.SLOT_STRUCT`` record."""
@@ -72,6 +76,9 @@ def _view(index: int, raw: tuple[int, ...]) -> ThreadView:
 
 class ControlBlock:
     """Create, map and drive the control block of one run."""
+
+    #: dropped by ``close`` before the map (compiled classes delete only what is listed)
+    __deletable__ = ["header", "slots", "_slot_bytes"]
 
     def __init__(self, run_dir: Path, *, spin_limit: int = 100_000, spin_quantum_ns: int = 100_000) -> None:
         self.path = Path(run_dir) / "vtime.ctl"

@@ -23,7 +23,10 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol
 
+from mypy_extensions import mypyc_attr
+
 from hil import clock
+from hil.frozen import by_fields
 from hil.transport.pty import WriteLog
 from hil.vtime.control import ControlBlock, ThreadStates, ThreadView, pid_alive
 
@@ -48,6 +51,7 @@ class ScheduledPort(Protocol):
     def read_available(self) -> bool: ...
 
 
+@mypyc_attr(native_class=False)  # compiled classes cannot derive from RuntimeError
 class ShimLost(RuntimeError):
     """The flight-code process no longer has the clock shim mapped: it exec'd a program
     without it (a wrapper that clears LD_PRELOAD, a set-user-ID helper). Its clocks are the
@@ -69,6 +73,9 @@ class Stall:
 
     waited_s: float
     threads: tuple[ThreadView, ...]
+
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
 
 
 class VirtualClock:

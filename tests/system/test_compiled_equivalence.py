@@ -1,9 +1,11 @@
 """The compiled device models and plant fly exactly like their Python sources.
 
-``pip install`` compiles ``emulators`` and ``hil.plant`` with mypyc (setup.py); the ``.py``
-files stay the reference. Here the same lockstep flight runs twice in fresh processes: once on
-the installed (compiled) modules, once on a copy of the sources with no compiled module in it.
-Every byte on the control wires and every plant truth message must be the same.
+``pip install`` compiles ``emulators``, ``hil.plant`` and the bench's tick path (the tick
+loop, the device wiring, the scheduler, the run logger, the streaming trace and criteria) with
+mypyc (setup.py); the ``.py`` files stay the reference. Here the same lockstep flight runs
+twice in fresh processes: once on the installed (compiled) modules, once on a copy of the
+sources with no compiled module in it. Every byte on the control wires, every plant truth
+message and every criterion's verdict on the flight must be the same.
 """
 
 from __future__ import annotations
@@ -30,12 +32,15 @@ SCENARIO, DURATION_S = "altitude-step", 4.0
 FLY = """
 import json, sys
 from pathlib import Path
-import emulators.base, emulators.mcp3204.device, hil.plant.plant
+import emulators.base, emulators.mcp3204.device, hil.plant.plant, hil.bench, hil.devices, hil.criteria_stream
 from hil.bench import Mode
 from hil.run import run_flight
 res = run_flight(None, sys.argv[1], mode=Mode.LOCKSTEP, duration_s=float(sys.argv[2]), out_dir=Path(sys.argv[3]))
-print(json.dumps({"end": res.end_reason.value, "log": str(res.log_path),
-                  "modules": [emulators.base.__file__, emulators.mcp3204.device.__file__, hil.plant.plant.__file__]}))
+# the flight's criteria (host timing figures left out: they measure the host, not the flight)
+criteria = [(c.name, repr(c.value), c.passed, c.detail) for c in res.criteria if not c.signal.startswith("timing.")]
+print(json.dumps({"end": res.end_reason.value, "log": str(res.log_path), "criteria": criteria,
+                  "modules": [emulators.base.__file__, emulators.mcp3204.device.__file__, hil.plant.plant.__file__,
+                              hil.bench.__file__, hil.devices.__file__, hil.criteria_stream.__file__]}))
 """
 
 
@@ -91,6 +96,8 @@ def test_compiled_and_interpreted_fly_the_same(tmp_path: Path) -> None:
     assert all(p.startswith(str(source)) for p in interpreted["modules"]), interpreted["modules"]
 
     assert compiled["end"] == interpreted["end"] == "completed"
+    assert compiled["criteria"], "the scenario has criteria on the flight"
+    assert compiled["criteria"] == interpreted["criteria"]
     a, b = Path(compiled["log"]), Path(interpreted["log"])
     for port, direction in CONTROL_WIRES:
         wa, wb = read_wire(a, port, direction), read_wire(b, port, direction)

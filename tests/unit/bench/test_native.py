@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import emulators.base
+import hil.devices
 import hil.plant.plant
 from hil import native
 
@@ -12,7 +13,8 @@ from hil import native
 def test_compiled_matches_the_modules_files() -> None:
     state = native.compiled()
     assert state == {"emulators": not emulators.base.__file__.endswith(".py"),
-                     "hil.plant": not str(hil.plant.plant.__file__).endswith(".py")}
+                     "hil.plant": not str(hil.plant.plant.__file__).endswith(".py"),
+                     "hil tick path": not str(hil.devices.__file__).endswith(".py")}
 
 
 def test_describe_names_the_state() -> None:

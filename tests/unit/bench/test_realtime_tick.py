@@ -27,6 +27,7 @@ class _Devices:
         self.k = -1
 
     def emit_rc_early(self, t_ns: int) -> None: ...
+    async def confirm_rc(self) -> None: ...
     def actuate_and_step(self, t_ns: int) -> None: ...
     def latch_analog(self, t_ns: int) -> None: ...
     def finish_tick(self, t_ns: int) -> None: ...
@@ -48,7 +49,7 @@ class _Devices:
 
 def _loop(devices: _Devices, ticks: int, seen: list[tuple[int, bool]]) -> TickLoop:
     return TickLoop(
-        devices,  # type: ignore[arg-type]
+        devices,  # type: ignore[arg-type]  # the realtime path only
         mode=Mode.REALTIME, tick_ns=TICK_NS, duration_ns=(ticks - 1) * TICK_NS, barrier_timeout_s=0.5,
         boot_timeout_s=1.0, after_tick=lambda k, t: seen.append((k, k in devices.answered)),
     )
