@@ -56,6 +56,6 @@ def stale(built: float | None = None) -> list[Path]:
 
 def stale_message(sources: list[Path]) -> str:
     names = ", ".join(str(p) for p in sources[:3]) + (f" and {len(sources) - 3} more" if len(sources) > 3 else "")
-    return (f"{names} changed after the compiled device models were built: Python runs the old "
+    return (f"{names} changed after the compiled modules were built: Python runs the old "
             "compiled code. Rebuild with `pip install -e .` (HIL_PURE_PYTHON=1 to keep them "
             "interpreted while you work on them).")

@@ -58,7 +58,7 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
     from hil.run import run_flight
 
     rep = PerfReport()
-    rep.rows.append(("device models and plant", native.describe(), "setup.py; HIL_PURE_PYTHON=1 builds them interpreted"))
+    rep.rows.append(("compiled parts (device models, plant, tick path)", native.describe(), "setup.py; HIL_PURE_PYTHON=1 builds them interpreted"))
     rig_plant = load_rig(None).plant
     plant = measure_tick_cost(20_000, params=rig_plant)
     rep.add(

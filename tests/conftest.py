@@ -14,7 +14,7 @@ SYSTEM_TIMEOUT_S = 900
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    # The compiled device models and plant shadow their sources (setup.py): after an edit
+    # The compiled modules (device models, plant, tick path) shadow their sources (setup.py): after an edit
     # the suite would test the old build. Stop, and say how to rebuild.
     from hil import native
 

@@ -1,4 +1,4 @@
-"""The compiled device models and plant fly exactly like their Python sources.
+"""The compiled device models, plant and tick path fly exactly like their Python sources.
 
 ``pip install`` compiles ``emulators``, ``hil.plant`` and the bench's tick path (the tick
 loop, the device wiring, the scheduler, the run logger, the streaming trace and criteria) with
