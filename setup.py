@@ -4,9 +4,11 @@
   in lockstep runs (docs/time.md). It has no Python module init and is never imported.
 - The device models (``emulators``), the plant (``hil.plant``) and the bench's tick path
   (``TICK_PATH``: the tick loop, the device wiring, the virtual-time scheduler, the run
-  logger and its streaming statistics), compiled by mypyc from their Python sources. The sources stay the reference: the same modules run interpreted
-  when the build is told ``HIL_PURE_PYTHON=1`` (``HIL_PURE_PYTHON=1 pip install -e .``), and
-  tests/system/test_compiled_equivalence.py flies a flight both ways and compares them bit for bit.
+  logger and its streaming statistics), compiled by mypyc from their Python sources. The
+  sources stay the reference: the same modules run interpreted when the build is told
+  ``HIL_PURE_PYTHON=1`` (``HIL_PURE_PYTHON=1 pip install -e .``), and
+  tests/system/test_compiled_equivalence.py flies a flight both ways and compares them bit
+  for bit.
   Pydantic-validated parameter modules stay interpreted: pydantic builds their validators at
   import time from the class bodies.
 """

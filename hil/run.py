@@ -11,13 +11,13 @@ flight code, closes the ports and finalizes the MCAP.
 from __future__ import annotations
 
 import asyncio
-import traceback
 import contextlib
 import gc
 import json
 import math
 import shutil
 import sys
+import traceback
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
