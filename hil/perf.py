@@ -50,10 +50,10 @@ def bare_timer_loop(n: int = 2000, period_ns: int = 2_500_000) -> np.ndarray:
 
 def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: float = 10.0) -> PerfReport:
     """Run every benchmark; returns the table rows."""
+    from hil import native
     from hil.bench import Mode
     from hil.plant.bench import measure_tick_cost
     from hil.record.perf import measure_recording
-    from hil import native
     from hil.rig import load_rig
     from hil.run import run_flight
 

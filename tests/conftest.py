@@ -14,8 +14,8 @@ SYSTEM_TIMEOUT_S = 900
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    # The compiled modules (device models, plant, tick path) shadow their sources (setup.py): after an edit
-    # the suite would test the old build. Stop, and say how to rebuild.
+    # The compiled modules (device models, plant, tick path) shadow their sources (setup.py):
+    # after an edit the suite would test the old build. Stop, and say how to rebuild.
     from hil import native
 
     sources = native.stale()

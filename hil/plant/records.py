@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import NamedTuple
+
+from hil.frozen import by_fields
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -33,8 +35,7 @@ class PlantState:
     h_m: float
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        # by field through __init__: a compiled (mypyc) frozen record has no __dict__
-        return type(self), tuple(getattr(self, f.name) for f in fields(self))
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
 
 
 class VibrationTone(NamedTuple):
@@ -82,5 +83,4 @@ class SensorTruth:
     vib_f_acc_B: tuple[VibrationTone, ...] = ()
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        # by field through __init__: a compiled (mypyc) frozen record has no __dict__
-        return type(self), tuple(getattr(self, f.name) for f in fields(self))
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
