@@ -430,6 +430,8 @@ async def run_flight_async(
                 "clock_note": clock_note,
                 "cpu_scale": f"{rig.flight.cpu_scale:g}",
                 "shim_calls": json.dumps(shim.calls if shim else {}),
+                "idle_waits": json.dumps({"inline": shim.idle_waits_inline, "event_loop": shim.idle_waits_loop}
+                                         if shim else {}),
                 "notes": json.dumps(notes),
             }
             stats = recorder.close(final)

@@ -169,6 +169,16 @@ class BufferedWrites:
     def _on_writable(self) -> None:
         raise NotImplementedError
 
+    @property
+    def writes_pending(self) -> bool:
+        """Bytes wait in ``_pending`` for the kernel to take them (the loop's writer drains them)."""
+        return bool(self._pending)
+
+    def write_pending(self) -> None:
+        """Hand the kernel what it takes of ``_pending`` now (the writer callback's work, for
+        a caller that waits on the descriptor's writability itself)."""
+        self._on_writable()
+
     def _buffer(self, data: bytes) -> int:
         room = self.buffer_limit - len(self._pending)
         accepted = data[: max(room, 0)]

@@ -48,6 +48,9 @@ class ShimUsage:
     busy_waits: int  #: spin-yields: clock reads in a loop turned into sim-time quanta
     stalls: int  #: waits for idle that took longer than the stall warning (wall time)
     warnings: list[str] = field(default_factory=list)
+    #: waits for idle made without / through a turn of the bench's event loop
+    idle_waits_inline: int = 0
+    idle_waits_loop: int = 0
 
 
 class VirtualTime:
@@ -102,7 +105,8 @@ class VirtualTime:
         if busy:
             warnings.append(f"the flight code busy-waited on its clock {busy} time(s): each was granted "
                             f"{self.ctl.header.spin_quantum_ns / 1e3:g} us of sim time (docs/time.md)")
-        return ShimUsage(calls, uncovered, busy, self.clock.stalls, warnings)
+        return ShimUsage(calls, uncovered, busy, self.clock.stalls, warnings, self.clock.inline_waits,
+                         self.clock.loop_waits)
 
     def close(self) -> None:
         self.clock.close()

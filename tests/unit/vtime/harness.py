@@ -31,6 +31,8 @@ class Outcome:
     uncovered: dict[str, int]
     times_ns: list[int] = field(default_factory=list)  #: sim times the scheduler moved to
     cpu_ns: int = 0
+    inline_waits: int = 0  #: idle waits made without a turn of the event loop
+    loop_waits: int = 0
 
 
 async def run_virtual(
@@ -41,6 +43,7 @@ async def run_virtual(
     limit_ns: int = 60 * 10**9,
     spin_limit: int = 100_000,
     run_dir: Path | None = None,
+    inline_wait_s: float | None = None,
 ) -> Outcome:
     own = run_dir is None
     run_dir = run_dir or Path(tempfile.mkdtemp(prefix="hil-vt-test-"))
@@ -49,7 +52,8 @@ async def run_virtual(
     library = shim_library()
     assert isinstance(library, Path), library
     env = dict(os.environ) | ctl.env(library)
-    vc = VirtualClock(ctl, ports or {})
+    vc = VirtualClock(ctl, ports or {}) if inline_wait_s is None else VirtualClock(
+        ctl, ports or {}, inline_wait_s=inline_wait_s)
     vc.start(0)
     proc = await asyncio.create_subprocess_exec(
         *argv, env=env, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, stdin=asyncio.subprocess.DEVNULL
@@ -89,4 +93,5 @@ async def run_virtual(
             import shutil
 
             shutil.rmtree(run_dir, ignore_errors=True)
-    return Outcome(proc.returncode or 0, stdout.decode(), stderr.decode(), calls, uncovered, times, cpu)
+    return Outcome(proc.returncode or 0, stdout.decode(), stderr.decode(), calls, uncovered, times, cpu,
+                   vc.inline_waits, vc.loop_waits)

@@ -36,6 +36,10 @@ def test_a_blocked_thread_reads_asleep_and_a_gone_process_as_nothing_to_wait_for
     t.join()
     os.close(r)
     os.close(w)
+    # join() returns once the thread's Python part is done; the kernel task lives on for its
+    # exit, and reads running until then. Wait for the kernel to remove it.
+    while os.path.exists(f"/proc/{pid}/task/{tid}"):
+        os.sched_yield()
     assert states.asleep(pid, tid)  # gone: nothing to wait for (its file is closed)
 
     child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
@@ -49,3 +53,27 @@ def test_a_blocked_thread_reads_asleep_and_a_gone_process_as_nothing_to_wait_for
     states.forget(child.pid)
     states.close()
     assert states._fds == {}
+
+
+def _state(pid: int) -> bytes:
+    with open(f"/proc/{pid}/stat", "rb") as f:
+        stat = f.read()
+    return stat[stat.rindex(b")") + 2 :][:1]
+
+
+def test_an_exited_unreaped_process_reads_as_nothing_to_wait_for() -> None:
+    """A zombie (exited, its parent has not waited yet) will not run again: waiting for it to
+    fall asleep would wait forever."""
+    states = ThreadStates()
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        states.asleep(child.pid, child.pid)  # opens its stat file: the zombie is read through it
+        child.kill()
+        while _state(child.pid) != b"Z":  # not reaped: no wait() until the end
+            os.sched_yield()
+        assert states.asleep(child.pid, child.pid)
+        assert asleep_in_kernel(child.pid, child.pid)
+    finally:
+        child.kill()
+        child.wait()
+        states.close()
