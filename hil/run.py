@@ -18,10 +18,10 @@ import math
 import shutil
 import sys
 import traceback
-from collections.abc import Callable, Mapping
+from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import tomli_w
@@ -52,6 +52,7 @@ from hil.vtime.session import ShimUsage, VirtualTime, describe_stall
 
 PORTS = ("imu", "adc", "rc", "esc", "telemetry", "ground")
 SWITCH_INTERVAL_S = 0.0005
+_T = TypeVar("_T")
 
 
 @dataclass
@@ -128,6 +129,22 @@ def _percentiles(prefix: str, values: StreamingStats | np.ndarray, scale: float 
         f"{prefix}_p99_us": float(np.percentile(values, 99)) * scale,
         f"{prefix}_max_us": float(values.max()) * scale,
     }
+
+
+async def _despite_cancel(aw: Awaitable[_T]) -> _T:
+    """Await ``aw`` to its end even if this task is cancelled meanwhile (a run's cleanup).
+    The cancel is taken back (``uncancel``): the run is ending anyway, and its result is
+    the answer to whoever asked it to stop."""
+    fut = asyncio.ensure_future(aw)
+    while True:
+        try:
+            return await asyncio.shield(fut)
+        except asyncio.CancelledError:
+            if fut.cancelled():
+                raise
+            task = asyncio.current_task()
+            if task is not None:
+                task.uncancel()
 
 
 def _timing_summary(loop: TickLoop, tick_ns: int, telemetry_compute_us: StreamingStats | None = None,
@@ -383,12 +400,14 @@ async def run_flight_async(
             gc.unfreeze()
         hog.__exit__(None, None, None)
         runner.finish(max(loop.t_ns, 0))
-        await runner.aclose()
+        # A stop that comes while the run is ending (a test's teardown racing the run's own
+        # end, a second Ctrl-C) must not cut this short: the flight code would outlive the run.
+        await _despite_cancel(runner.aclose())
         if vt is not None:
             vt.free_run()  # its shutdown and last words at the host's pace
-        returncode = await flight.stop()
+        returncode = await _despite_cancel(flight.stop())
         with contextlib.suppress(Exception):
-            await asyncio.sleep(0)  # let the last stderr lines reach the logger
+            await _despite_cancel(asyncio.sleep(0))  # let the last stderr lines reach the logger
         for port in ports.values():
             port.close()
         clock_used = loop.stats.clock

@@ -37,7 +37,8 @@ SETTLE_MAX_S = 0.005
 #: idle waits in lockstep, each a few hundred us, are made without a turn of the event loop
 #: (see :meth:`VirtualClock.idle`): one wait at most this long (wall s) before the loop runs
 INLINE_WAIT_S = 0.002
-#: and the event loop runs at least this often (wall s) while the waits go on inline
+#: and the event loop runs at least this often (wall s) while the waits go on inline: a
+#: wait that needs the loop makes the turn, or else the next wait yields to it first
 INLINE_BUDGET_S = 0.010
 
 
@@ -131,6 +132,8 @@ class VirtualClock:
         self.stalls = 0
         self._loop = asyncio.get_running_loop()
         self._loop.add_reader(ctl.notify_fd, self._on_notify)
+        #: loop time by which the event loop must have had a turn (waits go inline until then)
+        self._turn_due = self._loop.time() + INLINE_BUDGET_S
         self._waiter: asyncio.Future[None] | None = None
         self._closed = False
         #: check_idle found a thread that published a futex wait but is not asleep in the
@@ -330,20 +333,27 @@ class VirtualClock:
 
         Waits on the shim's notifications (a thread blocked) and on ``poke``; nothing polls.
         After ``stall_warn_s`` of wall time without idle, ``on_stall`` hears about it once
-        (a debugger stop or a SIGSTOP is not an error: the wait goes on)."""
+        (a debugger stop or a SIGSTOP is not an error: the wait goes on).
+
+        Waits are made inline (:meth:`_wait_inline`) while the event loop has had a turn
+        within ``INLINE_BUDGET_S``; past that this call yields to the loop first, so a run
+        whose waits all go inline still lets the loop's other work in (the tests' own tasks,
+        a ``stop``, process exits) every 10 ms."""
         loop = self._loop
+        if loop.time() >= self._turn_due:
+            await asyncio.sleep(0)
+            self._turn_due = loop.time() + INLINE_BUDGET_S
         stall_at: float | None = None
         reported = False
         settle_s = SETTLE_FIRST_S
-        inline_until = loop.time() + INLINE_BUDGET_S
         while True:
             if not running():
                 return False
             if self.check_idle():
                 return True
-            if not self._settling and loop.time() < inline_until and self._wait_inline():
+            if not self._settling and loop.time() < self._turn_due and self._wait_inline():
                 continue
-            inline_until = loop.time() + INLINE_BUDGET_S  # the event loop turns below
+            self._turn_due = loop.time() + INLINE_BUDGET_S  # the event loop turns below
             self.loop_waits += 1
             if stall_at is None:
                 stall_at = loop.time() + self.stall_warn_s
@@ -377,9 +387,9 @@ class VirtualClock:
         through the event loop, which also runs everything else (process exits, the stall
         timer, signals).
 
-        Why: a lockstep tick waits for the flight code about five times (its ADC request, its
-        ESC command, each time it blocks); through asyncio each wait costs a loop iteration,
-        a future and a timer, about a fifth of the bench's CPU per tick."""
+        Why: a lockstep tick waits for the flight code three to five times (its ADC request,
+        its ESC command, each time it blocks); through asyncio each wait costs a loop
+        iteration, a future and a timer (docs/performance.md, seventh round)."""
         queued = [p.master_fd for p in self.ports.values() if p.writes_pending]
         readable, writable, _ = select.select(self._wait_fds, queued, [], self.inline_wait_s)
         if not readable and not writable:

@@ -57,6 +57,39 @@ print(repr([(b, t - seen[0][1]) for b, t in seen]))
     assert out.inline_waits >= ECHOES, (out.inline_waits, out.loop_waits)
 
 
+async def test_the_event_loop_gets_its_turns_while_every_wait_goes_inline(tmp_path: Path) -> None:
+    """A run whose waits all go inline still yields to the event loop every 10 ms: other
+    tasks (a test's own code, a stop, process exits) are not starved until the run ends."""
+    port = PtyPort("imu", tmp_path)
+    await port.start()
+    code = f"""
+import serial
+s = serial.Serial({port.path!r}, 115200, timeout=1.0)
+for _ in range({ECHOES}):
+    b = s.read(1)
+    sum(range(200_000))  # a few ms of computing per answer: the waits add up past 10 ms
+    s.write(b)
+"""
+    turns = [0]
+
+    async def count_turns() -> None:
+        while True:
+            turns[0] += 1
+            await asyncio.sleep(0)
+
+    seen: dict[int, int] = {}
+    at = {k * S // 100: (lambda k=k: (seen.__setitem__(k, turns[0]), port.write(b"x"))) for k in range(ECHOES)}
+    counter = asyncio.ensure_future(count_turns())
+    try:
+        out = await run_virtual([sys.executable, "-c", code], ports={"imu": port}, at=at, inline_wait_s=1.0)
+    finally:
+        counter.cancel()
+        port.close()
+    assert out.returncode == 0, out.stderr
+    # nine answers, each computed for milliseconds, were waited for between these two
+    assert seen[ECHOES - 1] > seen[10], seen
+
+
 async def test_bytes_queued_for_a_slow_client_move_during_inline_waits(tmp_path: Path) -> None:
     """What the kernel would not take waits in the port's queue; while the scheduler waits
     inline (the event loop's writer callback does not run), it moves them as room appears."""
