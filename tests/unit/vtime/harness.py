@@ -19,7 +19,7 @@ from pathlib import Path
 from hil.transport.pty import PtyPort
 from hil.vtime.control import ControlBlock
 from hil.vtime.preload import shim_library
-from hil.vtime.scheduler import VirtualClock
+from hil.vtime.scheduler import INLINE_WAIT_S, VirtualClock
 
 
 @dataclass
@@ -43,7 +43,7 @@ async def run_virtual(
     limit_ns: int = 60 * 10**9,
     spin_limit: int = 100_000,
     run_dir: Path | None = None,
-    inline_wait_s: float | None = None,
+    inline_wait_s: float = INLINE_WAIT_S,
 ) -> Outcome:
     own = run_dir is None
     run_dir = run_dir or Path(tempfile.mkdtemp(prefix="hil-vt-test-"))
@@ -52,8 +52,7 @@ async def run_virtual(
     library = shim_library()
     assert isinstance(library, Path), library
     env = dict(os.environ) | ctl.env(library)
-    vc = VirtualClock(ctl, ports or {}) if inline_wait_s is None else VirtualClock(
-        ctl, ports or {}, inline_wait_s=inline_wait_s)
+    vc = VirtualClock(ctl, ports or {}, inline_wait_s=inline_wait_s)
     vc.start(0)
     proc = await asyncio.create_subprocess_exec(
         *argv, env=env, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, stdin=asyncio.subprocess.DEVNULL
