@@ -4,7 +4,7 @@
   in lockstep runs (docs/time.md). It has no Python module init and is never imported.
 - The device models (``emulators``), the plant (``hil.plant``) and the bench's tick path
   (``TICK_PATH``: the tick loop, the device wiring, the virtual-time scheduler, the run
-  logger and its streaming statistics), compiled by mypyc from their Python sources. The
+  logger and its streaming statistics, the pty port), compiled by mypyc from their Python sources. The
   sources stay the reference: the same modules run interpreted when the build is told
   ``HIL_PURE_PYTHON=1`` (``HIL_PURE_PYTHON=1 pip install -e .``), and
   tests/system/test_compiled_equivalence.py flies a flight both ways and compares them bit
@@ -26,13 +26,14 @@ ROOT = Path(__file__).parent
 #: interpreted on purpose (see the module docstring)
 INTERPRETED = {"params.py", "script.py"}
 COMPILED_PACKAGES = ("emulators", "hil/plant")
-#: the modules of ``hil`` a lockstep tick runs through (docs/performance.md, sixth round); the
-#: ports stay interpreted: their classes mix in ``BufferedWrites``, and mypyc compiles single
-#: inheritance only
+#: the modules of ``hil`` a lockstep tick runs through (docs/performance.md, sixth round), and
+#: the pty port under them (eighth round; the serial port, used only on attached hardware,
+#: stays interpreted)
 TICK_PATH = (
     "hil/bench.py", "hil/devices.py", "hil/runlog.py", "hil/timing.py", "hil/online_stats.py",
     "hil/trace_stream.py", "hil/criteria_stream.py", "hil/signal_stream.py", "hil/telemetry.py",
     "hil/frozen.py", "hil/record/process.py", "hil/vtime/control.py", "hil/vtime/scheduler.py",
+    "hil/transport/base.py", "hil/transport/pty.py",
 )
 
 

@@ -11,6 +11,15 @@ from dataclasses import fields
 from typing import Any
 
 
+#: field names by record class: ``dataclasses.fields`` is interpreted and rebuilds its tuple
+#: on every call, and the recorder pickles a plant state a few times a tick
+_NAMES: dict[type, tuple[str, ...]] = {}
+
+
 def by_fields(record: Any) -> tuple[type, tuple[object, ...]]:
     """``__reduce__`` of a dataclass whose fields are all ``__init__`` arguments."""
-    return type(record), tuple(getattr(record, f.name) for f in fields(record))
+    cls = type(record)
+    names = _NAMES.get(cls)
+    if names is None:
+        names = _NAMES[cls] = tuple(f.name for f in fields(record))
+    return cls, tuple([getattr(record, name) for name in names])

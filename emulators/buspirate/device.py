@@ -81,12 +81,18 @@ class BusPirateUartRate(DeviceEvent):
     baud_bps: int
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class BusPirateSpi(DeviceEvent):
     """One bulk transfer or write-then-read on the SPI pins."""
 
     mosi: bytes
     miso: bytes
+
+    def __init__(self, t_ns: int, mosi: bytes, miso: bytes) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "mosi", mosi)
+        object.__setattr__(self, "miso", miso)
 
 
 def _firmware_version(firmware: str) -> tuple[int, int]:

@@ -32,7 +32,7 @@ from emulators.maestro.protocol import (
 NS_PER_US = 1_000
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class TargetsSet(DeviceEvent):
     """A complete Set Target / Set Multiple Targets / Mini SSC command was applied at
     ``t_ns``: channels ``first_channel`` .. + len-1 now have ``targets_qus`` (after
@@ -40,6 +40,12 @@ class TargetsSet(DeviceEvent):
 
     first_channel: int
     targets_qus: tuple[int, ...]
+
+    def __init__(self, t_ns: int, first_channel: int, targets_qus: tuple[int, ...]) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "first_channel", first_channel)
+        object.__setattr__(self, "targets_qus", targets_qus)
 
 
 @dataclass(frozen=True)

@@ -56,7 +56,7 @@ _CODE_KEYS = {True: tuple(f"codes_ch{ch}" for ch in range(N_CHANNELS)),
               False: tuple(f"codes_diff_ch{ch}" for ch in range(N_CHANNELS))}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Mcp3204Conversion(DeviceEvent):
     """One completed conversion (B0 shifted out).
 
@@ -69,6 +69,15 @@ class Mcp3204Conversion(DeviceEvent):
     code: int
     volts: float
     vref_V: float
+
+    def __init__(self, t_ns: int, channel: int, single_ended: bool, code: int, volts: float, vref_V: float) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "channel", channel)
+        object.__setattr__(self, "single_ended", single_ended)
+        object.__setattr__(self, "code", code)
+        object.__setattr__(self, "volts", volts)
+        object.__setattr__(self, "vref_V", vref_V)
 
 
 @dataclass(frozen=True)

@@ -38,21 +38,32 @@ class Sticks(Protocol):
     def pulses_us(self, t_ns: int) -> tuple[int, ...]: ...
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class PpmEdge:
     """One edge of the PPM line at sim time ``t_ns``; ``level`` is the pin level after it (True = high)."""
 
     t_ns: int
     level: bool
 
+    def __init__(self, t_ns: int, level: bool) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "level", level)
 
-@dataclass(frozen=True)
+
+@dataclass(frozen=True, init=False)
 class PpmFrame:
     """One generated frame: start time, the channel widths it carries (us), and whether a glitch was inserted."""
 
     t_ns: int
     pulses_us: tuple[int, ...]
     glitch: bool = False
+
+    def __init__(self, t_ns: int, pulses_us: tuple[int, ...], glitch: bool = False) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "pulses_us", pulses_us)
+        object.__setattr__(self, "glitch", glitch)
 
 
 @dataclass(frozen=True)

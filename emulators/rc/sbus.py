@@ -92,11 +92,16 @@ def unpack_sbus(data: bytes) -> SbusFrame | None:
                      bool(flags & SbusFlag.FRAME_LOST), bool(flags & SbusFlag.FAILSAFE), data[24])
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class PpmDecoded(DeviceEvent):
     """The converter decoded a PPM frame ending at ``t_ns`` with these widths (us)."""
 
     pulses_us: tuple[int, ...]
+
+    def __init__(self, t_ns: int, pulses_us: tuple[int, ...]) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "pulses_us", pulses_us)
 
 
 class PpmDecoder:

@@ -29,7 +29,7 @@ ACK_WAIT_NS = 864_000  # macAckWaitDuration (54 symbols)
 BACKOFF_UNIT_NS = 320_000  # aUnitBackoffPeriod
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class RfDelivered(DeviceEvent):
     """A packet of ``n_bytes`` from module ``src`` reached module ``dst`` at ``t_ns``."""
 
@@ -37,6 +37,14 @@ class RfDelivered(DeviceEvent):
     dst: str
     n_bytes: int
     attempts: int
+
+    def __init__(self, t_ns: int, src: str, dst: str, n_bytes: int, attempts: int) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "src", src)
+        object.__setattr__(self, "dst", dst)
+        object.__setattr__(self, "n_bytes", n_bytes)
+        object.__setattr__(self, "attempts", attempts)
 
 
 @dataclass(frozen=True)

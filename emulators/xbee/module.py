@@ -48,7 +48,7 @@ class RfKind(Enum):
     REMOTE_AT_RESPONSE = auto()  # payload: frame id, status, command (2), value
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class RfPacket:
     """One packet handed to the radio at ``t_ns``: addressing as the 802.15.4 MAC carries
     it (``dest16`` or ``dest64``; ``src16`` = ``NO_16BIT`` for 64-bit source addressing),
@@ -66,6 +66,23 @@ class RfPacket:
     pan_id: int
     tag: int
     kind: RfKind = RfKind.DATA
+
+    def __init__(self, t_ns: int, src16: int, src64: int, dest16: int | None, dest64: int | None, payload: bytes,
+                 ack: bool, broadcast_pan: bool, channel: int, pan_id: int, tag: int,
+                 kind: RfKind = RfKind.DATA) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "src16", src16)
+        object.__setattr__(self, "src64", src64)
+        object.__setattr__(self, "dest16", dest16)
+        object.__setattr__(self, "dest64", dest64)
+        object.__setattr__(self, "payload", payload)
+        object.__setattr__(self, "ack", ack)
+        object.__setattr__(self, "broadcast_pan", broadcast_pan)
+        object.__setattr__(self, "channel", channel)
+        object.__setattr__(self, "pan_id", pan_id)
+        object.__setattr__(self, "tag", tag)
+        object.__setattr__(self, "kind", kind)
 
     @property
     def broadcast(self) -> bool:

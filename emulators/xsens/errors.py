@@ -27,13 +27,19 @@ from emulators.xsens.frames import Quat, Vec3, euler_deg_to_quat, quat_to_euler_
 from emulators.xsens.params import XsensParams
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Measured:
     """One sample as the sensor measured it (input frames)."""
 
     q_NS: Quat
     omega_S_radps: Vec3
     f_S_mps2: Vec3
+
+    def __init__(self, q_NS: Quat, omega_S_radps: Vec3, f_S_mps2: Vec3) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "q_NS", q_NS)
+        object.__setattr__(self, "omega_S_radps", omega_S_radps)
+        object.__setattr__(self, "f_S_mps2", f_S_mps2)
 
 
 #: Samples' worth of normals drawn per Generator call.

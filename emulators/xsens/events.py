@@ -16,7 +16,7 @@ class State(Enum):
     MEASUREMENT = "measurement"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class SampleSent(DeviceEvent):
     """One data message put on the wire (MTData2, or MTData for a legacy device).
 
@@ -31,6 +31,18 @@ class SampleSent(DeviceEvent):
     rate_radps: tuple[float, float, float] | None
     acc_mps2: tuple[float, float, float] | None
     nbytes: int
+
+    def __init__(self, t_ns: int, packet_counter: int | None, sample_time_fine: int | None,
+                 euler_deg: tuple[float, float, float] | None, rate_radps: tuple[float, float, float] | None,
+                 acc_mps2: tuple[float, float, float] | None, nbytes: int) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "packet_counter", packet_counter)
+        object.__setattr__(self, "sample_time_fine", sample_time_fine)
+        object.__setattr__(self, "euler_deg", euler_deg)
+        object.__setattr__(self, "rate_radps", rate_radps)
+        object.__setattr__(self, "acc_mps2", acc_mps2)
+        object.__setattr__(self, "nbytes", nbytes)
 
 
 @dataclass(frozen=True)
@@ -47,13 +59,20 @@ class StateChanged(DeviceEvent):
     new: State
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class CommandHandled(DeviceEvent):
     """A host message was handled; ``reply_mid`` is the ack, 0x42 for Error, None if silent."""
 
     mid: int
     reply_mid: int | None
     error_code: int | None = None
+
+    def __init__(self, t_ns: int, mid: int, reply_mid: int | None, error_code: int | None = None) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "mid", mid)
+        object.__setattr__(self, "reply_mid", reply_mid)
+        object.__setattr__(self, "error_code", error_code)
 
 
 @dataclass(frozen=True)

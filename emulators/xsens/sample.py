@@ -58,7 +58,7 @@ _CLIPPED = int(StatusFlag.CLIPPING_DETECTED)
 _U16, _U32 = struct.Struct(">H"), struct.Struct(">I")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Ctx:
     """Per-message inputs shared by the item encoders."""
 
@@ -67,6 +67,14 @@ class Ctx:
     packet_counter: int
     sample_time_fine: int
     t_device_ns: int
+
+    def __init__(self, m: Measured, status: int, packet_counter: int, sample_time_fine: int, t_device_ns: int) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "m", m)
+        object.__setattr__(self, "status", status)
+        object.__setattr__(self, "packet_counter", packet_counter)
+        object.__setattr__(self, "sample_time_fine", sample_time_fine)
+        object.__setattr__(self, "t_device_ns", t_device_ns)
 
 
 @dataclass(frozen=True)
@@ -100,7 +108,7 @@ def plan(items: Iterable[tuple[int, int | None]], message_period_ns: int) -> tup
     return tuple(out)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Built:
     """A payload and what it carried (output frame values, None if absent)."""
 
@@ -108,6 +116,13 @@ class Built:
     euler_deg: Vec3 | None
     rate_radps: Vec3 | None
     acc_mps2: Vec3 | None
+
+    def __init__(self, payload: bytes, euler_deg: Vec3 | None, rate_radps: Vec3 | None, acc_mps2: Vec3 | None) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "payload", payload)
+        object.__setattr__(self, "euler_deg", euler_deg)
+        object.__setattr__(self, "rate_radps", rate_radps)
+        object.__setattr__(self, "acc_mps2", acc_mps2)
 
 
 def _clip(v: Vec3, limit: float, flags: tuple[int, int, int]) -> tuple[Vec3, int]:

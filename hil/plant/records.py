@@ -12,7 +12,7 @@ Quat = tuple[float, float, float, float]
 Four = tuple[float, float, float, float]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class PlantState:
     """Truth snapshot. NED world, FRD body; position/velocity of the body origin."""
 
@@ -33,6 +33,26 @@ class PlantState:
     mass_kg: float
     #: Altitude of the body origin above its resting height on the field (= -p_N_m[2]).
     h_m: float
+
+    def __init__(self, t_ns: int, p_N_m: Vec3, v_N_mps: Vec3, q_NB: Quat, omega_B_radps: Vec3, euler_rpy_rad: Vec3,
+                 rotor_omega_radps: Four, thrust_N: Four, battery_V: float, battery_soc: float, battery_A: float,
+                 on_ground: bool, wind_N_mps: Vec3, mass_kg: float, h_m: float) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "p_N_m", p_N_m)
+        object.__setattr__(self, "v_N_mps", v_N_mps)
+        object.__setattr__(self, "q_NB", q_NB)
+        object.__setattr__(self, "omega_B_radps", omega_B_radps)
+        object.__setattr__(self, "euler_rpy_rad", euler_rpy_rad)
+        object.__setattr__(self, "rotor_omega_radps", rotor_omega_radps)
+        object.__setattr__(self, "thrust_N", thrust_N)
+        object.__setattr__(self, "battery_V", battery_V)
+        object.__setattr__(self, "battery_soc", battery_soc)
+        object.__setattr__(self, "battery_A", battery_A)
+        object.__setattr__(self, "on_ground", on_ground)
+        object.__setattr__(self, "wind_N_mps", wind_N_mps)
+        object.__setattr__(self, "mass_kg", mass_kg)
+        object.__setattr__(self, "h_m", h_m)
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
         return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
@@ -55,7 +75,7 @@ class VibrationTone(NamedTuple):
     im: Vec3
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class SensorTruth:
     """Physical inputs of the sensors, noise-free (the emulators add their errors).
 
@@ -81,6 +101,21 @@ class SensorTruth:
     vib_f_S: tuple[VibrationTone, ...] = ()
     vib_omega_S: tuple[VibrationTone, ...] = ()
     vib_f_acc_B: tuple[VibrationTone, ...] = ()
+
+    def __init__(self, t_ns: int, q_NS: Quat, omega_S_radps: Vec3, f_S_mps2: Vec3, f_acc_B_mps2: Vec3,
+                 p_static_Pa: float, air_T_C: float, vib_f_S: tuple[VibrationTone, ...] = (),
+                 vib_omega_S: tuple[VibrationTone, ...] = (), vib_f_acc_B: tuple[VibrationTone, ...] = ()) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "q_NS", q_NS)
+        object.__setattr__(self, "omega_S_radps", omega_S_radps)
+        object.__setattr__(self, "f_S_mps2", f_S_mps2)
+        object.__setattr__(self, "f_acc_B_mps2", f_acc_B_mps2)
+        object.__setattr__(self, "p_static_Pa", p_static_Pa)
+        object.__setattr__(self, "air_T_C", air_T_C)
+        object.__setattr__(self, "vib_f_S", vib_f_S)
+        object.__setattr__(self, "vib_omega_S", vib_omega_S)
+        object.__setattr__(self, "vib_f_acc_B", vib_f_acc_B)
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
         return by_fields(self)  # compiled records pickle by field (hil/frozen.py)

@@ -7,6 +7,8 @@ import enum
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from mypy_extensions import mypyc_attr
+
 from hil import clock
 
 
@@ -17,7 +19,7 @@ class Direction(enum.Enum):
     RX = "rx"  #: client -> bench
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class WireRecord:
     """One chunk of bytes seen on a port. ``t_ns`` is sim time, ``t_host_ns`` monotonic."""
 
@@ -26,6 +28,14 @@ class WireRecord:
     t_ns: int
     t_host_ns: int
     data: bytes
+
+    def __init__(self, port: str, direction: Direction, t_ns: int, t_host_ns: int, data: bytes) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "port", port)
+        object.__setattr__(self, "direction", direction)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "t_host_ns", t_host_ns)
+        object.__setattr__(self, "data", data)
 
 
 @dataclass(frozen=True)
@@ -73,6 +83,7 @@ def _no_line(settings: LineSettings) -> None:
     return None
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)  # the serial port and tests' fakes are interpreted
 class Port:
     """Base of the transports: callbacks, tap and sim-time source.
 
@@ -151,17 +162,19 @@ class Port:
         self.on_line(settings)
 
 
-class BufferedWrites:
-    """Bounded non-blocking writes for the transports with a file descriptor (pty, serial):
-    what the kernel will not take now waits in ``_pending``, drained by the loop's writer
-    callback; beyond ``buffer_limit`` bytes are dropped and counted (like a UART overrun),
-    never hidden. The transport provides ``_writer_fd`` and ``_on_writable``."""
+@mypyc_attr(allow_interpreted_subclasses=True)
+class BufferedWrites(Port):
+    """A port with bounded non-blocking writes, for the transports with a file descriptor (pty,
+    serial): what the kernel will not take now waits in ``_pending``, drained by the loop's
+    writer callback; beyond ``buffer_limit`` bytes are dropped and counted (like a UART
+    overrun), never hidden. The transport provides ``_writer_fd`` and ``_on_writable``.
+
+    A base class, not a mixin: the pty port is compiled (setup.py), and mypyc compiles single
+    inheritance only."""
 
     _pending: bytearray
     _writer_registered: bool
     _loop: asyncio.AbstractEventLoop | None
-    buffer_limit: int
-    stats: PortStats
 
     def _writer_fd(self) -> int | None:
         raise NotImplementedError

@@ -29,7 +29,7 @@ import termios
 import tty
 from pathlib import Path
 
-from hil.transport.base import BufferedWrites, Direction, LineSettings, Port
+from hil.transport.base import BufferedWrites, Direction, LineSettings
 
 EXTPROC = 0o200000  # not exported by the termios module
 TIOCPKT_DATA = 0
@@ -92,7 +92,7 @@ class WriteLog:
         return written
 
 
-class PtyPort(BufferedWrites, Port):
+class PtyPort(BufferedWrites):
     """A pty whose slave is published as ``<dev_dir>/<name>``."""
 
     def __init__(self, name: str, dev_dir: str | os.PathLike[str], *, buffer_limit: int = 65536) -> None:

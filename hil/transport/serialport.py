@@ -38,7 +38,7 @@ from typing import Any
 import serial
 
 from hil.config import ConfigError
-from hil.transport.base import BufferedWrites, LineSettings, Port
+from hil.transport.base import BufferedWrites, LineSettings
 
 #: linux/serial.h: struct serial_struct and its flag for low-latency (no tty flip buffering)
 TIOCGSERIAL = 0x541E
@@ -167,7 +167,7 @@ def open_serial(port: str, target: str, framing: Framing) -> serial.SerialBase:
     return ser
 
 
-class SerialPort(BufferedWrites, Port):
+class SerialPort(BufferedWrites):
     """A bench port on a real serial line (see module docstring).
 
     ``target`` is the device path or URL; ``notes`` collects what the user should know

@@ -35,7 +35,7 @@ REAL_BASE_NS = 1_356_998_400 * 1_000_000_000
 TAI_OFFSET_NS = 37 * 1_000_000_000
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class ThreadView:
     """One flight-code thread as the bench sees it (a snapshot of its slot)."""
 
@@ -50,6 +50,22 @@ class ThreadView:
     keys: tuple[tuple[int, int], ...] | None  #: (rdev key, poll events); None: not known (epoll)
     spin_yields: int
     futex: bool = False  #: blocked on a lock/semaphore/condition/join of its own process
+
+    def __init__(self, index: int, tid: int, pid: int, seq: int, blocked: bool, deadline_ns: int | None, cpu_ns: int,
+                 seen_epoch: int, keys: tuple[tuple[int, int], ...] | None, spin_yields: int,
+                 futex: bool = False) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "index", index)
+        object.__setattr__(self, "tid", tid)
+        object.__setattr__(self, "pid", pid)
+        object.__setattr__(self, "seq", seq)
+        object.__setattr__(self, "blocked", blocked)
+        object.__setattr__(self, "deadline_ns", deadline_ns)
+        object.__setattr__(self, "cpu_ns", cpu_ns)
+        object.__setattr__(self, "seen_epoch", seen_epoch)
+        object.__setattr__(self, "keys", keys)
+        object.__setattr__(self, "spin_yields", spin_yields)
+        object.__setattr__(self, "futex", futex)
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
         return by_fields(self)  # compiled records pickle by field (hil/frozen.py)

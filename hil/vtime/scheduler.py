@@ -346,13 +346,16 @@ class VirtualClock:
         stall_at: float | None = None
         reported = False
         settle_s = SETTLE_FIRST_S
-        while True:
-            if not running():
+        ask = True  # whether ``running`` may have changed: only a turn of the event loop
+        while True:  # reaps a process or runs a restart, so an inline wait cannot change it
+            if ask and not running():
                 return False
             if self.check_idle():
                 return True
             if not self._settling and loop.time() < self._turn_due and self._wait_inline():
+                ask = False
                 continue
+            ask = True
             self._turn_due = loop.time() + INLINE_BUDGET_S  # the event loop turns below
             self.loop_waits += 1
             if stall_at is None:
