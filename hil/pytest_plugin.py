@@ -32,7 +32,7 @@ import shutil
 import tempfile
 import warnings
 from collections.abc import AsyncIterator, Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -517,7 +517,9 @@ class Bench:
         assert self.devices is not None, "the bench has not started"
         out = {name: {k: int(v) for k, v in d.counters.items()} for name, d in self.devices.by_port.items()}
         for name, port in self.devices.ports.items():
-            out[f"port.{name}"] = {k: v for k, v in vars(port.stats).items() if isinstance(v, int)}
+            # fields, not vars(): the ports' records are compiled (no __dict__)
+            out[f"port.{name}"] = {f.name: v for f in fields(port.stats)
+                                   if isinstance(v := getattr(port.stats, f.name), int)}
         return out
 
     def last_event(self, name: str) -> DeviceEvent | None:

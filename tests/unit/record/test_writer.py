@@ -284,14 +284,17 @@ def test_tap_records_transport_wire_records(tmp_path: Path) -> None:
     rec = _new(tmp_path / "r.mcap")
     rec.start()
     rec.tap(WireRecord("rc", Direction.TX, -5_000_000, 11, b"\x01\x02"))
-    rec.tap(WireRecord("rc", Direction.TX, 0, 12, bytearray(b"\x03")))
-    rec.tap(WireRecord("esc", Direction.RX, 0, 13, memoryview(b"\x84\x00")))
+    # a WireRecord holds bytes (compiled, it checks); the writer takes any bytes-like
+    rec.log_wire("rc", "tx", 0, 12, bytearray(b"\x03"))  # type: ignore[arg-type]
+    rec.tap(WireRecord("esc", Direction.RX, 0, 13, b"\x84\x00"))
+    rec.log_wire("esc", "rx", 1, 14, memoryview(b"\x85"))  # type: ignore[arg-type]
     rec.close()
     rc = read_topic(rec.path, "/hil/wire/rc/tx")
     assert rc["log_time_ns"].tolist() == [RUN_START_NS - 5_000_000, RUN_START_NS]
     assert rc["t_ns"].tolist() == [-5_000_000, 0] and rc["len"].tolist() == [2, 1]
     assert list(rc["data"]) == [b"\x01\x02", b"\x03"]
-    assert read_topic(rec.path, "/hil/wire/esc/rx")["port"].tolist() == ["esc"]
+    esc = read_topic(rec.path, "/hil/wire/esc/rx")
+    assert esc["port"].tolist() == ["esc", "esc"] and list(esc["data"]) == [b"\x84\x00", b"\x85"]
 
 
 def test_chunks_are_zstd_and_small(tmp_path: Path) -> None:
