@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hil.online_stats import ExactSum
 from hil.scenario import Criterion
 from hil.trace import Trace
 
@@ -64,6 +65,13 @@ def _sine_phase_rad(t_s: np.ndarray, v: np.ndarray, freq_hz: float) -> float:
     return math.atan2(float(c), float(s))
 
 
+def _mean(v: np.ndarray) -> float:
+    """The mean rounded once (the streaming criteria's is the same to the bit)."""
+    total = ExactSum()
+    total.add(v)
+    return total.mean()
+
+
 def _step_levels(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> tuple[float, float]:
     """(start, target) of a step criterion (absolute or relative to the pre-step level)."""
     assert c.step_t_s is not None
@@ -72,14 +80,14 @@ def _step_levels(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> tuple[float, f
         final = (t_s >= c.final_window_s[0]) & (t_s <= c.final_window_s[1])
         if not np.any(before) or not np.any(final):
             return math.nan, math.nan
-        return float(np.mean(v[before])), float(np.mean(v[final]))
+        return _mean(v[before]), _mean(v[final])
     if c.step_size is None:
         if c.target is None:
             raise ValueError(f"criterion {c.name!r}: metric {c.metric} needs target or step_size")
         return (math.nan if c.start is None else c.start), c.target
     if not np.any(before):
         return math.nan, math.nan
-    level = float(np.mean(v[before]))
+    level = _mean(v[before])
     return level, level + c.step_size
 
 

@@ -27,7 +27,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from hil.criteria import CriterionResult, failed, result_of
-from hil.online_stats import Moments, SineFit, finite_rows
+from hil.online_stats import ExactSum, Moments, SineFit, finite_rows
 from hil.scenario import Criterion
 from hil.signal_stream import Source, resolve
 from hil.trace_stream import Chunk, TraceStream
@@ -155,8 +155,8 @@ class _Step(_Evaluator):
         self.c, self.sources = c, [source]
         self.samples = 0  # rows in the window
         self.finite = 0  # of which every column is finite
-        self.pre = [0.0, 0]  # sum, count over [step_t - pre_step_s, step_t)
-        self.fin = [0.0, 0]  # over final_window_s
+        self.pre = ExactSum()  # over [step_t - pre_step_s, step_t)
+        self.fin = ExactSum()  # over final_window_s
         self.levels: tuple[float, float] | None = None  # (start, target) once known
         self.waiting: list[tuple[np.ndarray, np.ndarray]] = []  # after the step, levels unknown
         self.config_error = ""  # raised by value() where the batch raises it
@@ -180,12 +180,10 @@ class _Step(_Evaluator):
             return
         v1 = v if v.ndim == 1 else v.mean(axis=1)
         before = (t_s >= c.step_t_s - c.pre_step_s) & (t_s < c.step_t_s)
-        self.pre[0] += float(np.sum(v1[before]))
-        self.pre[1] += int(np.count_nonzero(before))
+        self.pre.add(v1[before])
         if c.final_window_s is not None:
             final = (t_s >= c.final_window_s[0]) & (t_s <= c.final_window_s[1])
-            self.fin[0] += float(np.sum(v1[final]))
-            self.fin[1] += int(np.count_nonzero(final))
+            self.fin.add(v1[final])
         after = t_s >= c.step_t_s
         if np.any(after):
             if self.levels is None:
@@ -207,20 +205,20 @@ class _Step(_Evaluator):
     def _set_levels(self) -> None:
         c = self.c
         if c.final_window_s is not None:
-            if not self.pre[1] or not self.fin[1]:
+            if not self.pre.count or not self.fin.count:
                 self.levels = (math.nan, math.nan)
             else:
-                self.levels = (self.pre[0] / self.pre[1], self.fin[0] / self.fin[1])
+                self.levels = (self.pre.mean(), self.fin.mean())
         elif c.step_size is None:
             if c.target is None:
                 self.config_error = f"criterion {c.name!r}: metric {c.metric} needs target or step_size"
                 self.levels = (math.nan, math.nan)
             else:
                 self.levels = ((math.nan if c.start is None else c.start), c.target)
-        elif not self.pre[1]:
+        elif not self.pre.count:
             self.levels = (math.nan, math.nan)
         else:
-            level = self.pre[0] / self.pre[1]
+            level = self.pre.mean()
             self.levels = (level, level + c.step_size)
         start0, target = self.levels
         if c.band_fraction is not None:

@@ -7,6 +7,9 @@ array: the memory of the streaming criteria (hil/criteria_stream.py).
 * :class:`SineFit`: least-squares fit of ``s sin(wt) + c cos(wt) + offset`` kept as the 4x4
   triangular factor of the design matrix augmented with the data (QR updated per block):
   O(1) memory, and as well conditioned as ``numpy.linalg.lstsq`` on the whole window.
+* :class:`ExactSum`: a sum rounded once at the end, whatever the blocks: the step criteria's
+  levels, which the batch computes with it too, so that a band test on them cannot land on
+  different sides of its bound in the two (a rounding of the last bit did).
 
 A block is ``values`` of shape (m,) (one column) or (m, columns); rows with a non-finite value
 are left out, as the batch criteria leave them out (hil/criteria.py).
@@ -29,6 +32,68 @@ def finite_rows(values: np.ndarray) -> np.ndarray:
     if values.ndim == 1:
         return values[np.isfinite(values)]
     return values[np.all(np.isfinite(values), axis=1)]
+
+
+class ExactSum:
+    """Sum and mean of floats fed in any number of blocks, equal to ``math.fsum`` of them all
+    at once: the exact sum of the finite values, kept as Shewchuk's non-overlapping partials
+    (a handful of floats), rounded once when read. NaN, or +inf with -inf, gives NaN; an
+    infinity of one sign gives it. Why: a level summed block by block and the same level from
+    ``numpy.mean`` of the whole array can differ in the last bit (docs/architecture.md, the
+    criteria stream)."""
+
+    __slots__ = ("_partials", "count", "_nan", "_pos_inf", "_neg_inf")
+
+    def __init__(self) -> None:
+        self._partials: list[float] = []
+        self.count = 0
+        self._nan = False
+        self._pos_inf = False
+        self._neg_inf = False
+
+    def add(self, values: np.ndarray) -> None:
+        """Add every element of ``values`` (any shape)."""
+        partials = self._partials
+        for x in np.ravel(values).tolist():
+            self.count += 1
+            if not math.isfinite(x):
+                if x != x:
+                    self._nan = True
+                elif x > 0:
+                    self._pos_inf = True
+                else:
+                    self._neg_inf = True
+                continue
+            i = 0
+            for y in partials:  # x + y = hi + lo exactly (two-sum), keep the non-zero rest
+                if abs(x) < abs(y):
+                    x, y = y, x
+                hi = x + y
+                lo = y - (hi - x)
+                if lo:
+                    partials[i] = lo
+                    i += 1
+                x = hi
+            if not math.isfinite(x):  # beyond the largest float: infinite from here on
+                self._pos_inf, self._neg_inf = self._pos_inf or x > 0, self._neg_inf or x < 0
+                partials.clear()
+                continue
+            del partials[i:]
+            partials.append(x)
+
+    def total(self) -> float:
+        if self._nan or (self._pos_inf and self._neg_inf):
+            return math.nan
+        if self._pos_inf or self._neg_inf:
+            return math.inf if self._pos_inf else -math.inf
+        try:
+            return math.fsum(self._partials)
+        except OverflowError:  # the rounded sum is beyond the largest float
+            return math.copysign(math.inf, self._partials[-1])
+
+    def mean(self) -> float:
+        """NaN when nothing was added."""
+        return self.total() / self.count if self.count else math.nan
 
 
 class Moments:

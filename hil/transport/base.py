@@ -187,7 +187,7 @@ class BufferedWrites(Port):
         """Bytes wait in ``_pending`` for the kernel to take them (the loop's writer drains them)."""
         return bool(self._pending)
 
-    def write_pending(self) -> None:
+    def drain_queued(self) -> None:
         """Hand the kernel what it takes of ``_pending`` now (the writer callback's work, for
         a caller that waits on the descriptor's writability itself)."""
         self._on_writable()

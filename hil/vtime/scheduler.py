@@ -57,7 +57,7 @@ class ScheduledPort(Protocol):
     def read_available(self) -> bool: ...
     @property
     def writes_pending(self) -> bool: ...
-    def write_pending(self) -> None: ...
+    def drain_queued(self) -> None: ...
 
 
 @mypyc_attr(native_class=False)  # compiled classes cannot derive from RuntimeError
@@ -405,7 +405,7 @@ class VirtualClock:
             else:
                 self._master[fd].read_available()
         for fd in writable:
-            self._master[fd].write_pending()
+            self._master[fd].drain_queued()
         return True
 
     def _check_shim(self) -> None:

@@ -247,3 +247,19 @@ def test_step_metrics_streaming_equals_batch(case: tuple[dict[str, object], list
     flight, crits = case
     batch, streamed, _ = fly(flight, crits)
     assert_same(batch, streamed)
+
+
+def test_a_level_on_the_band_edge_lands_on_the_same_side_in_both() -> None:
+    """Found by hypothesis: a flat signal whose pre-step level, summed tick by tick, came out a
+    bit off ``numpy.mean``'s, so |v - target| fell either side of the band (settled at once in
+    the batch, never settled in the stream). Both now round the level's sum once."""
+    level = 1.2778898140690313
+    n = 41
+    flight = {"n": n, "t0_ns": 0, "truth": [(0.0, level)] * n, "esc": [(level, 0.0, 0.0)] * n,
+              "points": [(k * TICK_NS, k * TICK_NS, level) for k in range(0, n, 4)], "max_delay_ns": 0,
+              "chunk_ticks": 1}
+    crit = Criterion(name="settling_time", signal="truth.b", metric="settling_time", window_s=(0.0, 1.0),
+                     max=100.0, band=1.0, step_t_s=1.0, step_size=1.0)
+    batch, streamed, _ = fly(flight, [crit])
+    assert_same(batch, streamed)
+    assert batch[0].value == streamed[0].value
