@@ -7,19 +7,19 @@ workers back to the campaign."""
 
 from __future__ import annotations
 
+import functools
 from dataclasses import fields
 from typing import Any
 
 
-#: field names by record class: ``dataclasses.fields`` is interpreted and rebuilds its tuple
-#: on every call, and the recorder pickles a plant state a few times a tick
-_NAMES: dict[type, tuple[str, ...]] = {}
+@functools.cache
+def _field_names(cls: type) -> tuple[str, ...]:
+    """Cached: ``dataclasses.fields`` is interpreted and rebuilds its tuple on every call, and
+    the recorder pickles a plant state a few times a tick."""
+    return tuple(f.name for f in fields(cls))
 
 
 def by_fields(record: Any) -> tuple[type, tuple[object, ...]]:
     """``__reduce__`` of a dataclass whose fields are all ``__init__`` arguments."""
-    cls = type(record)
-    names = _NAMES.get(cls)
-    if names is None:
-        names = _NAMES[cls] = tuple(f.name for f in fields(record))
-    return cls, tuple([getattr(record, name) for name in names])
+    cls: type = type(record)
+    return cls, tuple([getattr(record, name) for name in _field_names(cls)])

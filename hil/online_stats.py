@@ -18,6 +18,7 @@ are left out, as the batch criteria leave them out (hil/criteria.py).
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -36,16 +37,15 @@ def finite_rows(values: np.ndarray) -> np.ndarray:
 
 class ExactSum:
     """Sum and mean of floats fed in any number of blocks, equal to ``math.fsum`` of them all
-    at once: the exact sum of the finite values, kept as Shewchuk's non-overlapping partials
-    (a handful of floats), rounded once when read. NaN, or +inf with -inf, gives NaN; an
-    infinity of one sign gives it. Why: a level summed block by block and the same level from
-    ``numpy.mean`` of the whole array can differ in the last bit (docs/architecture.md, the
-    criteria stream)."""
+    at once: the exact sum of the finite values (a ``Fraction``: every float is one), rounded
+    once when read. NaN, or +inf with -inf, gives NaN; an infinity of one sign gives it. Why:
+    a level summed block by block and the same level from ``numpy.mean`` of the whole array
+    can differ in the last bit (docs/architecture.md, the criteria stream)."""
 
-    __slots__ = ("_partials", "count", "_nan", "_pos_inf", "_neg_inf")
+    __slots__ = ("_exact", "count", "_nan", "_pos_inf", "_neg_inf")
 
     def __init__(self) -> None:
-        self._partials: list[float] = []
+        self._exact = Fraction(0)
         self.count = 0
         self._nan = False
         self._pos_inf = False
@@ -53,33 +53,16 @@ class ExactSum:
 
     def add(self, values: np.ndarray) -> None:
         """Add every element of ``values`` (any shape)."""
-        partials = self._partials
         for x in np.ravel(values).tolist():
             self.count += 1
-            if not math.isfinite(x):
-                if x != x:
-                    self._nan = True
-                elif x > 0:
-                    self._pos_inf = True
-                else:
-                    self._neg_inf = True
-                continue
-            i = 0
-            for y in partials:  # x + y = hi + lo exactly (two-sum), keep the non-zero rest
-                if abs(x) < abs(y):
-                    x, y = y, x
-                hi = x + y
-                lo = y - (hi - x)
-                if lo:
-                    partials[i] = lo
-                    i += 1
-                x = hi
-            if not math.isfinite(x):  # beyond the largest float: infinite from here on
-                self._pos_inf, self._neg_inf = self._pos_inf or x > 0, self._neg_inf or x < 0
-                partials.clear()
-                continue
-            del partials[i:]
-            partials.append(x)
+            if math.isfinite(x):
+                self._exact += Fraction(x)
+            elif x != x:
+                self._nan = True
+            elif x > 0:
+                self._pos_inf = True
+            else:
+                self._neg_inf = True
 
     def total(self) -> float:
         if self._nan or (self._pos_inf and self._neg_inf):
@@ -87,9 +70,9 @@ class ExactSum:
         if self._pos_inf or self._neg_inf:
             return math.inf if self._pos_inf else -math.inf
         try:
-            return math.fsum(self._partials)
-        except OverflowError:  # the rounded sum is beyond the largest float
-            return math.copysign(math.inf, self._partials[-1])
+            return float(self._exact)  # rounded once (an exact integer division)
+        except OverflowError:  # beyond the largest float
+            return math.inf if self._exact > 0 else -math.inf
 
     def mean(self) -> float:
         """NaN when nothing was added."""
