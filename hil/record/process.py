@@ -71,7 +71,7 @@ def _child(cmd_fd: int, result_fd: int, path: Path, kwargs: dict[str, Any]) -> N
     os.closerange(3, cmd_fd)  # the bench's ptys and files are none of ours
     os.closerange(cmd_fd + 1, result_fd)
     os.closerange(result_fd + 1, 65536)
-    rec = Recorder(path, **kwargs)
+    rec = Recorder(path, **kwargs, writer_thread=False)  # this process only records
     error = ""
     try:
         rec.start()

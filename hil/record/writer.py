@@ -321,11 +321,14 @@ class Recorder:
     (rig, scenario, seed, versions, git SHA ...). ``attachments``: (name, media_type, data)
     written right after it (rig and scenario files). ``chunk_size``: uncompressed bytes per
     zstd chunk. ``queue_max``: queued messages beyond which ``log()`` drops (and counts).
+    ``writer_thread``: encode and write on a thread of its own (the default: ``log()`` only
+    queues), or in the caller's ``log()`` (no queue: a process that does nothing but record,
+    such as the recorder child of ``hil.record.process``, saves a thread hand-over per batch).
     """
 
     def __init__(self, path: Path, *, run_start_unix_ns: int, metadata: dict[str, str],
                  attachments: Iterable[tuple[str, str, bytes]] = (), chunk_size: int = 65536,
-                 queue_max: int = 200_000) -> None:
+                 queue_max: int = 200_000, writer_thread: bool = True) -> None:
         if run_start_unix_ns < 0:
             raise ValueError("run_start_unix_ns must be >= 0")
         if chunk_size <= 0 or queue_max <= 0:
@@ -337,6 +340,7 @@ class Recorder:
         self._attachments = [(str(n), str(m), bytes(d)) for n, m, d in attachments]
         self._chunk_size = int(chunk_size)
         self._queue_max = int(queue_max)
+        self._threaded = bool(writer_thread)
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._routes: dict[str, _Route] = {t: _Route(s) for t, s in TOPICS.items()}
         self._state = _State.NEW
@@ -383,10 +387,12 @@ class Recorder:
             self.part_path.unlink()  # ours (O_EXCL), and holds nothing worth keeping
             raise
         self._sink, self._writer = sink, writer
-        self._thread = threading.Thread(target=self._run, name=f"mcap-writer {self.path.name}", daemon=True)
+        if self._threaded:
+            self._thread = threading.Thread(target=self._run, name=f"mcap-writer {self.path.name}", daemon=True)
         with self._lock:
             self._transition("start")
-        self._thread.start()
+        if self._thread is not None:
+            self._thread.start()
 
     def _begin_file(self, sink: _SinkProxy) -> Writer:
         """Header, ``run`` metadata, attachments (straight to the OS), then schemas and channels."""
@@ -466,6 +472,8 @@ class Recorder:
     def _put(self, route: _Route, kind: _Kind, t_ns: int, t_host_ns: int, payload: Any) -> None:
         if self._state is not _State.RUNNING:
             self._not_running(route)
+        elif not self._threaded:
+            self._handle((route, kind, t_ns, t_host_ns, payload))
         elif self._queue.qsize() >= self._queue_max:
             with self._lock:
                 route.dropped += 1
@@ -480,6 +488,8 @@ class Recorder:
         if self._state is not _State.RUNNING:
             for item in items:
                 self._not_running(item[0])
+        elif not self._threaded:
+            self._handle((items[0][0], _Kind.BATCH, 0, 0, items))
         elif self._queue.qsize() >= self._queue_max:
             with self._lock:
                 for item in items:
@@ -713,9 +723,12 @@ class Recorder:
         if not was_running:
             self._stats = RecordStats({}, 0, self.path)
             return self._stats
-        assert self._thread is not None and self._writer is not None and self._sink is not None
-        self._queue.put(_STOP)
-        self._thread.join()
+        assert self._writer is not None and self._sink is not None
+        if self._thread is not None:
+            self._queue.put(_STOP)
+            self._thread.join()
+        else:
+            self._flush_wire(None)  # what the writer thread does when it stops
         while True:  # producers that raced with close(): count, never lose silently
             try:
                 item = self._queue.get_nowait()

@@ -82,6 +82,24 @@ async def test_recorded_file_reads_back_independently(fly, tmp_path: Path) -> No
         assert counts.get(topic, 0) > 0, f"{topic} missing from {sorted(counts)}"
 
 
+async def test_every_tick_reaches_the_log_and_the_trace(fly) -> None:
+    """Every tick is in the log and in the trace, the last one included (the recording goes
+    to the recorder in batches: the last must be sent before the log is closed)."""
+    from hil.record import read_topic
+
+    result = await fly("hover", duration_s=1.0)
+    assert result.end_reason is EndReason.COMPLETED, explain(result)
+    assert result.log_path is not None and result.trace is not None
+    ticks = read_topic(result.log_path, "/hil/timing/tick")
+    assert len(ticks["t_ns"]) == result.timing["ticks"] == 401
+    assert ticks["t_ns"][-1] == 1_000_000_000
+    truth = read_topic(result.log_path, "/sim/truth")  # every 4th tick (truth_divider)
+    assert list(truth["t_ns"]) == [k * 10_000_000 for k in range(101)]
+    t_s, _ = result.trace.signal("truth.h_m")
+    assert len(t_s) == 401 and t_s[-1] == pytest.approx(1.0)
+    assert result.counters  # the devices' counters at the end
+
+
 async def test_realtime_mode_runs_on_the_wall_clock(fly) -> None:
     """Realtime: paced by the precise pacer, commands applied when they arrive. Only the
     mechanics are asserted here; the timing figures belong to `hil perf`."""

@@ -67,8 +67,9 @@ class Blocking(Mapping[str, Any]):
         return len(self._d)
 
 
-def test_every_topic_round_trips_and_validates(tmp_path: Path) -> None:
-    rec = record_examples(tmp_path / "run.mcap", n_rounds=3)
+@pytest.mark.parametrize("writer_thread", [True, False], ids=["writer-thread", "in-caller"])
+def test_every_topic_round_trips_and_validates(tmp_path: Path, writer_thread: bool) -> None:
+    rec = record_examples(tmp_path / "run.mcap", n_rounds=3, writer_thread=writer_thread)
     stats = rec.close()  # idempotent: same stats again
     assert stats.path == tmp_path / "run.mcap" and stats.path.exists()
     assert not rec.part_path.exists()
@@ -97,6 +98,27 @@ def test_every_topic_round_trips_and_validates(tmp_path: Path) -> None:
         assert msgs == [m for k in range(3) for m in expected_messages(TOPICS[topic], k * 2_500_000, HOST0_NS + k * 1000)]
     wire = [m for t, _, m in iter_messages(stats.path, ["/hil/wire/imu/tx"])]
     assert [m["data"] for m in wire] == [TOPICS["/hil/wire/imu/tx"].example] * 3
+
+
+def test_writing_in_the_caller_writes_what_the_writer_thread_writes(tmp_path: Path) -> None:
+    """``writer_thread=False`` (the recorder child's mode) encodes and writes in ``log()``
+    itself: the same messages, stamps and bytes as through the writer thread, batches too."""
+    def record(path: Path, writer_thread: bool) -> list[tuple[str, int, int, bytes]]:
+        rec = _new(path, writer_thread=writer_thread)
+        with rec:
+            for k in range(40):
+                t_ns = k * 2_500_000
+                batch = rec.batch()
+                batch.log_wire("imu", "tx", t_ns, HOST0_NS + k, bytes([k]) * 69)
+                batch.log("/hil/esc/command", t_ns, {"t_ns": t_ns, "targets_us": [1100.0 + k] * 4}, HOST0_NS + k)
+                batch.log("/hil/events", t_ns, lambda k=k: {"kind": "bench", "name": f"e{k}", "detail": {}}, HOST0_NS + k)
+                batch.flush()
+                rec.log_wire("adc", "rx", t_ns, HOST0_NS + k, b"\x01\x02")
+                rec.log_truth(t_ns, {"t_ns": t_ns, "p_N_m": [0.0, 0.0, -k / 10], "q_NB": [1.0, 0.0, 0.0, 0.0]}, HOST0_NS + k)
+        return [(topic, m.log_time, m.publish_time, m.data) for topic, m, _ in _raw_messages(rec.path)]
+
+    threaded = record(tmp_path / "a.mcap", True)
+    assert threaded and threaded == record(tmp_path / "b.mcap", False)
 
 
 def test_protobuf_messages_leave_out_what_the_record_says(tmp_path: Path) -> None:
