@@ -369,7 +369,8 @@ class Recorder:
         self._state = self._check(action)
 
     def start(self) -> None:
-        """Create ``<path>.part``; write header, ``run`` metadata and attachments; start the writer thread.
+        """Create ``<path>.part``; write header, ``run`` metadata and attachments; start the writer thread
+        (unless ``writer_thread=False``).
 
         Refuses (FileExistsError) to overwrite an existing ``path`` or ``.part`` file. If
         start() fails the recorder stays unstarted (close() is then a no-op).
