@@ -95,9 +95,10 @@ class FlightSection:
 @dataclass(frozen=True)
 class RecordSection:
     __pydantic_config__ = {"extra": "forbid"}
-    truth_divider: int = 4  #: /sim/truth and /hil/esc/output every N ticks (100 Hz: the file budget, docs/recording.md)
-    pose_divider: int = 8  #: /tf and /sim/pose every N ticks (50 Hz)
-    counters_divider: int = 400  #: device counters every N ticks (1 Hz)
+    #: /sim/truth and /hil/esc/output every N ticks (100 Hz: the file budget, docs/recording.md)
+    truth_divider: Annotated[int, Field(ge=1)] = 4
+    pose_divider: Annotated[int, Field(ge=1)] = 8  #: /tf and /sim/pose every N ticks (50 Hz)
+    counters_divider: Annotated[int, Field(ge=1)] = 400  #: device counters every N ticks (1 Hz)
 
 
 @dataclass(frozen=True)

@@ -59,6 +59,19 @@ def test_wrong_type_names_the_key_and_the_value(tmp_path: Path) -> None:
     assert "[imu] baud_bps" in msg and "'fast'" in msg
 
 
+@pytest.mark.parametrize("key", ["truth_divider", "pose_divider", "counters_divider"])
+def test_a_record_divider_below_one_names_the_key(tmp_path: Path, key: str) -> None:
+    """A divider of 0 would divide by zero at the first tick: refused at load instead."""
+    text = _rig(tmp_path, "").read_text()
+    start = text.index(f"\n{key} = ") + 1
+    end = text.index("#", start)
+    path = tmp_path / "rig2.toml"
+    path.write_text(text[:start] + f"{key} = 0 " + text[end:])
+    with pytest.raises(ConfigError) as err:
+        load_rig(path)
+    assert str(path) in str(err.value) and f"[record] {key}" in str(err.value)
+
+
 def test_unknown_table(tmp_path: Path) -> None:
     path = _rig(tmp_path, "[motors]\nn = 4\n")
     with pytest.raises(ConfigError, match=r"top level\] motors: unknown key"):
