@@ -42,33 +42,28 @@ class ExactSum:
     a level summed block by block and the same level from ``numpy.mean`` of the whole array
     can differ in the last bit (docs/architecture.md, the criteria stream)."""
 
-    __slots__ = ("_exact", "count", "_nan", "_pos_inf", "_neg_inf")
+    __slots__ = ("_exact", "count", "_special")
 
     def __init__(self) -> None:
         self._exact = Fraction(0)
         self.count = 0
-        self._nan = False
-        self._pos_inf = False
-        self._neg_inf = False
+        #: the sum of the non-finite values, which float addition gets right: 0.0 while there
+        #: are none, then an infinity of one sign, or NaN
+        self._special = 0.0
 
     def add(self, values: np.ndarray) -> None:
         """Add every element of ``values`` (any shape)."""
-        for x in np.ravel(values).tolist():
-            self.count += 1
-            if math.isfinite(x):
-                self._exact += Fraction(x)
-            elif x != x:
-                self._nan = True
-            elif x > 0:
-                self._pos_inf = True
-            else:
-                self._neg_inf = True
+        flat = np.ravel(values)
+        self.count += flat.size
+        finite = np.isfinite(flat)
+        self._exact += sum(map(Fraction, flat[finite].tolist()), Fraction(0))
+        if not finite.all():
+            for x in flat[~finite].tolist():
+                self._special += x
 
     def total(self) -> float:
-        if self._nan or (self._pos_inf and self._neg_inf):
-            return math.nan
-        if self._pos_inf or self._neg_inf:
-            return math.inf if self._pos_inf else -math.inf
+        if self._special:  # NaN is true too
+            return self._special
         try:
             return float(self._exact)  # rounded once (an exact integer division)
         except OverflowError:  # beyond the largest float
