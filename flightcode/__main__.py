@@ -102,8 +102,9 @@ def main(argv: list[str] | None = None) -> int:
         from flightcode.loop import FlightLoop, make_devices
 
         flight = FlightLoop(cfg, make_devices(cfg, ports, log), log)
-        flight.boot()
-        collector.start()  # collections between samples from now on (flightcode/gc_policy.py)
+        # collections between samples from now on (flightcode/gc_policy.py); the full
+        # collection and freeze run before the IMU streams, not over its first samples
+        flight.boot(before_measurement=collector.start)
         flight.run(between=collector.after_iteration)
         return EXIT_OK  # run() returns only with max_iterations
     except Shutdown as exc:

@@ -6,7 +6,8 @@ young collection took 0.07 ms, a middle one 0.7-1.0 ms, and a full one 12-19 ms,
 five loop periods and every sample in them late. Flight code that must answer each sample
 within 2.5 ms therefore:
 
-1. collects everything once after boot and freezes the survivors (``gc.freeze``): modules,
+1. collects everything once at the end of boot, before the IMU streams, and freezes the
+   survivors (``gc.freeze``): modules,
    config, controllers and their matrices are never traversed again;
 2. turns automatic collection off;
 3. after each iteration (the ESC command is already written) collects the generation

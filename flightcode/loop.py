@@ -167,8 +167,14 @@ class FlightLoop:
         self.last: dict[str, object] = {}
 
     # -- boot / shutdown ------------------------------------------------------------------
-    def boot(self) -> None:
-        """Bring every device up (DeviceError names the one that does not answer)."""
+    def boot(self, before_measurement: Callable[[], object] | None = None) -> None:
+        """Bring every device up (DeviceError names the one that does not answer).
+
+        ``before_measurement`` runs once everything is configured and before XSENS
+        GoToMeasurement: from GoToMeasurement on, a sample arrives every 2.5 ms, so slow
+        one-off work (the garbage collector's full collection and freeze,
+        flightcode/gc_policy.py: 12-19 ms) belongs here, not between the first samples.
+        """
         d = self.dev
         info = d.imu.bring_up()
         d.adc_bridge.enter_spi()
@@ -176,6 +182,8 @@ class FlightLoop:
         self.log.info("esc.minimum", pulse_us=self.cfg.esc.min_us)
         if d.telemetry is not None:
             d.telemetry.drain()
+        if before_measurement is not None:
+            before_measurement()
         d.imu.start()
         self.log.info("boot.done", imu_device_id=f"{info.device_id:08X}", rc_frontend=self.cfg.rc.frontend,
                       attitude_law=self.cfg.attitude.law, accel_source=self.cfg.kf.accel_source)

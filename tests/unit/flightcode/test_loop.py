@@ -73,6 +73,20 @@ def test_boot_sequence_and_disarmed_motors() -> None:
     assert "event=boot.done" in log and "event=mode old=boot new=disarmed cause=boot_done" in log
 
 
+def test_boot_runs_its_hook_after_configuring_and_before_the_imu_streams() -> None:
+    # The garbage collector's full collection (12-19 ms) runs in this hook: after
+    # GoToMeasurement it would cost the first half-dozen samples their commands.
+    cfg = parse(PORTS + FAST, "test.toml")
+    w = FakeWorld(lambda t: pilot(t, climb_at=99.0))
+    loop = FlightLoop(cfg, make_devices(cfg, w.ports, Logger(io.StringIO()), w.clock), Logger(io.StringIO()))  # type: ignore[arg-type]
+    seen: list[tuple[list[int], str]] = []
+    loop.boot(before_measurement=lambda: seen.append((list(w.imu.requests), w.adc.mode)))
+    assert len(seen) == 1
+    requests, adc_mode = seen[0]
+    assert 0x10 not in requests and adc_mode == "spi" and w.esc.commands == 1  # configured, not measuring
+    assert w.imu.requests[-1] == 0x10  # GoToMeasurement came after the hook
+
+
 def test_arm_take_off_and_climb_to_the_stick_altitude() -> None:
     loop, w, log = run(pilot, 1600)
     assert "new=armed cause=arm_gesture" in log and "new=flying cause=takeoff" in log
