@@ -97,8 +97,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         ports = open_ports(cfg)
         log.info("ports.open", **{name: getattr(cfg.ports, name).path for name in ports})
-        # Imported here: python-control and filterpy take ~2.5 s to import; the config and
-        # port errors above should not wait for them.
+        # Imported here: numpy and scipy.linalg take about half a second to import; the
+        # config and port errors above should not wait for them.
         from flightcode.loop import FlightLoop, make_devices
 
         flight = FlightLoop(cfg, make_devices(cfg, ports, log), log)

@@ -5,7 +5,8 @@
 * lockstep: the real-time factor of the full stack (plant, all emulators, the flight code
   as a subprocess, recording) and the bench's own cost per tick, interleaved with the bare
   lockstep skeleton (``hil.skeleton``: the same exchanges over ptys with pyserial, nothing
-  else), so the ratio says how much of what the transport allows the bench reaches;
+  else), so the ratio says how much of what the transport allows the bench reaches; and the
+  ceiling the flight code's own CPU per sample sets on the RTF, whatever the bench costs;
 * realtime: the IMU emit-period error (the pacer's lateness) and the flight code's response
   latency (IMU emitted -> ESC command) p50/p99/max, next to a bare timer loop measured in
   the same process right before (the floor of this machine).
@@ -25,6 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from hil import clock
+
+
+#: one 400 Hz tick of sim time, us
+TICK_US = 2500.0
 
 
 @dataclass
@@ -73,13 +78,14 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
 
         from hil.skeleton import run_skeleton
 
-        rtfs, costs, cpus, lat50, lat99, skel = [], [], [], [], [], []
+        rtfs, costs, cpus, lat50, lat99, skel, fc = [], [], [], [], [], [], []
         for i in range(lockstep_runs):
             skel.append(asyncio.run(run_skeleton(lockstep_s)).rtf)
             res = run_flight(None, "hover", mode=Mode.LOCKSTEP, duration_s=lockstep_s, out_dir=Path(tmp) / f"l{i}")
             rtfs.append(res.timing["rtf"])
             costs.append(res.timing.get("bench_cost_p50_us", float("nan")))
             cpus.append(res.timing.get("bench_cpu_per_tick_us", float("nan")))
+            fc.append(res.timing.get("fc_compute_p50_us", float("nan")))
             # host figures: on virtual time the flight code answers at the sample's own sim time
             lat50.append(res.timing.get("host_latency_p50_us", float("nan")))
             lat99.append(res.timing.get("host_latency_p99_us", float("nan")))
@@ -93,6 +99,15 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         rep.add("lockstep bench CPU per tick (median)", statistics.median(cpus), "us",
                 "the bench process's CPU over the tick loop / ticks: the tick's work and serving the flight "
                 "code's requests (target <= 150 us)")
+        # In lockstep the flight code's CPU per sample elapses inside every tick, whatever the
+        # bench costs: 2.5 ms over it bounds the RTF from above (the targets' feasibility).
+        fc_us = statistics.median(fc)
+        ceiling = TICK_US / fc_us
+        rep.add("lockstep flight code CPU per sample (median of p50)", fc_us, "us",
+                "the flight code's own work per IMU sample in the runs above (not the bench's)")
+        rep.add("lockstep RTF ceiling set by the flight code", ceiling, "x",
+                f"2.5 ms / its CPU per sample: no bench, however cheap, runs this hover faster; "
+                f"/ skeleton = {ceiling / statistics.median(skel):.3g}")
         rep.add("lockstep tick work (median of p50)", statistics.median(costs), "us",
                 "wall time of the tick's own steps (plant, emitting, recording), without the waits")
         rep.add("lockstep flight response p50", statistics.median(lat50), "us", "IMU written -> ESC command read, host time")

@@ -1,11 +1,13 @@
-"""Start-up control design: continuous LQR and zero-order-hold discretization.
+"""Start-up control design: continuous LQR, zero-order-hold and Van Loan discretization.
 
-Both are ``scipy.linalg`` calls, the same ones python-control's ``lqr`` and ``c2d(method="zoh")``
-make here (no slycot installed: ``control.care`` falls back to
-``scipy.linalg.solve_continuous_are``). Importing python-control at start-up cost the flight
-code 1.6 s on a quiet machine and 4-10 s on a loaded one (it imports scipy.signal and
-matplotlib), every flight; scipy.linalg is already loaded by filterpy. The tests check both
-functions against python-control to 1e-12 (tests/unit/flightcode/control/test_design.py).
+All three are ``scipy.linalg`` calls, the same ones python-control's ``lqr`` and
+``c2d(method="zoh")`` make here (no slycot installed: ``control.care`` falls back to
+``scipy.linalg.solve_continuous_are``) and filterpy's ``van_loan_discretization`` makes.
+Importing python-control at start-up cost the flight code 1.6 s on a quiet machine and 4-10 s
+on a loaded one (it imports scipy.signal and matplotlib), every flight; importing anything of
+filterpy imports all of it (its ``__init__`` loads every subpackage, scipy.stats and
+scipy.ndimage among them): 0.9-1.2 s more. The tests check these functions against
+python-control and filterpy (tests/unit/flightcode/control/test_design.py).
 """
 
 from __future__ import annotations
@@ -35,3 +37,18 @@ def zoh(a: np.ndarray, b: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarra
     block[:n, n:] = b
     phi = expm(block * t_s)
     return phi[:n, :n], phi[:n, n:]
+
+
+def van_loan(a: np.ndarray, g: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Van Loan's discretization of dx/dt = A x + G w, w unit white noise (C. F. van Loan,
+    IEEE TAC 23(3), 1978): (Phi (n, n), Q_d (n, n)) for the period ``t_s`` in s, from the
+    exponential of the block matrix [[-A, G G'], [0, A']] t_s, what
+    ``filterpy.common.van_loan_discretization`` computes (same operations, same result)."""
+    n = a.shape[0]
+    block = np.zeros((2 * n, 2 * n))
+    block[:n, :n] = -a.dot(t_s)
+    block[:n, n:] = g.dot(g.T).dot(t_s)
+    block[n:, n:] = a.T.dot(t_s)
+    e = expm(block)
+    phi = e[n:, n:].T
+    return phi, phi.dot(e[:n, n:])

@@ -30,8 +30,11 @@ offset is learnt as bias b instead of being integrated into a fall (what made th
 to -0.5..-1.5 m while disarmed); the height itself is still the barometer's.
 
 Discretisation at T_s: F, B by ZOH on u (``design.zoh``, what ``control.c2d`` computes); Q by Van Loan from the white-noise
-PSDs (q_a, q_d, q_b) with ``filterpy.common.van_loan_discretization``; they are held in a
-``filterpy.kalman.KalmanFilter`` (:attr:`AltitudeKF.kf`). The per-sample arithmetic is the
+PSDs (q_a, q_d, q_b) (``design.van_loan``, what ``filterpy.common.van_loan_discretization``
+computes). :attr:`AltitudeKF.kf` holds the design (F, B, H, Q, R) in a
+``filterpy.kalman.KalmanFilter``, built when first asked for: importing filterpy costs the
+flight code about a second at start-up (design.py), and the flight needs only the fast
+path. The per-sample arithmetic is the
 same filter done in place on preallocated arrays: R is diagonal, so the measurements are
 applied one scalar at a time (exactly the joint update), each a rank-one covariance update
 without a matrix inverse; P is re-symmetrised every predict. That is about 3x cheaper than
@@ -43,13 +46,16 @@ from __future__ import annotations
 
 import math
 from collections import Counter
+from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
-from filterpy.common import van_loan_discretization
-from filterpy.kalman import KalmanFilter
 
-from flightcode.control.design import zoh
+from flightcode.control.design import van_loan, zoh
 from flightcode.control.lqi_altitude import AltitudeModel
+
+if TYPE_CHECKING:
+    from filterpy.kalman import KalmanFilter
 
 #: Initial variances [z m^2, z' (m/s)^2, a (m/s^2)^2, d (m/s^2)^2, b (m/s^2)^2] after reset:
 #: z as uncertain as one baro reading (filled in from r_baro_m2), the vehicle at rest (small
@@ -110,17 +116,14 @@ class AltitudeKF:
         h = np.array([[1.0, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 1.0, 1.0]])
         a_d, b_d = zoh(a_c, b_c, self.T_s)
         g = np.diag([0.0, 0.0, math.sqrt(q_a), math.sqrt(q_d), math.sqrt(q_b)])
-        _, q_d_matrix = van_loan_discretization(a_c, g, self.T_s)
-
-        kf = KalmanFilter(dim_x=5, dim_z=2, dim_u=1)
-        kf.F = np.asarray(a_d, dtype=float)
-        kf.B = np.asarray(b_d, dtype=float)
-        kf.H = h
+        _, q_d_matrix = van_loan(a_c, g, self.T_s)
+        #: The design: F (5, 5), B (5, 1), H (2, 5), Q (5, 5), R (2, 2), for a T_s period.
+        self.F = np.asarray(a_d, dtype=float)
+        self.B = np.asarray(b_d, dtype=float)
+        self.H = h
         # Symmetrise: Van Loan's product is symmetric only to rounding.
-        kf.Q = 0.5 * (q_d_matrix + q_d_matrix.T)
-        kf.R = np.diag([float(r_baro_m2), float(r_acc)])
-        #: The design (F, B, H, Q, R) in filterpy's filter: the reference of the fast path.
-        self.kf = kf
+        self.Q = 0.5 * (q_d_matrix + q_d_matrix.T)
+        self.R = np.diag([float(r_baro_m2), float(r_acc)])
         self.r_baro_m2 = float(r_baro_m2)
         self.r_acc = float(r_acc)
         self.r_rest_vz = float(r_rest_vz)
@@ -131,10 +134,10 @@ class AltitudeKF:
         self.baro_reject_run = 0
         self._p0 = np.diag([float(r_baro_m2)] + [float(v) for v in P0_DIAG_REST[1:]])
         # Per-sample working arrays (no allocation on the tick path).
-        self._F = np.array(kf.F)
-        self._Ft = np.array(kf.F.T)
-        self._B = np.array(kf.B[:, 0])
-        self._Q = np.array(kf.Q)
+        self._F = np.array(self.F)
+        self._Ft = np.array(self.F.T)
+        self._B = np.array(self.B[:, 0])
+        self._Q = np.array(self.Q)
         self._x = np.zeros(5)
         self._x_next = np.zeros(5)
         self._v5 = np.zeros(5)
@@ -146,6 +149,16 @@ class AltitudeKF:
         #: readings rejected by the gate and re-anchors after a long rejection.
         self.counters: Counter[str] = Counter()
         self.reset(0.0)
+
+    @cached_property
+    def kf(self) -> KalmanFilter:
+        """The design (F, B, H, Q, R) in filterpy's filter, the reference of the fast path
+        (its own copies: stepping it leaves this filter alone)."""
+        from filterpy.kalman import KalmanFilter
+
+        kf = KalmanFilter(dim_x=5, dim_z=2, dim_u=1)
+        kf.F, kf.B, kf.H, kf.Q, kf.R = (np.array(m) for m in (self.F, self.B, self.H, self.Q, self.R))
+        return kf
 
     @staticmethod
     def continuous_model(model: AltitudeModel) -> tuple[np.ndarray, np.ndarray]:

@@ -1,13 +1,14 @@
-"""The start-up design functions against python-control, the reference they replace."""
+"""The start-up design functions against python-control and filterpy, the references they replace."""
 
 from __future__ import annotations
 
 import control as ct
 import numpy as np
+from filterpy.common import van_loan_discretization
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flightcode.control.design import lqr, zoh
+from flightcode.control.design import lqr, van_loan, zoh
 from flightcode.control.lqi_altitude import AltitudeModel, LqiAltitude
 from flightcode.control.reference import Prefilter3
 from flightcode.estimation.altitude_kf import AltitudeKF
@@ -57,13 +58,40 @@ def test_zoh_equals_control_c2d(w: float, t_s: float) -> None:
     np.testing.assert_allclose(b_d, ref.B, rtol=1e-12, atol=1e-14)
 
 
-def test_the_flight_code_does_not_import_python_control() -> None:
-    """Start-up cost: python-control (with scipy.signal and matplotlib) is for the tests."""
+@settings(max_examples=40, deadline=None)
+@given(w=st.floats(0.5, 50.0), t_s=st.floats(1e-4, 0.05),
+       g_diag=st.lists(st.floats(0.0, 10.0), min_size=3, max_size=3))
+def test_van_loan_equals_filterpy(w: float, t_s: float, g_diag: list[float]) -> None:
+    a = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-(w**3), -3.0 * w**2, -3.0 * w]])
+    g = np.diag(g_diag)
+    phi_ref, q_ref = van_loan_discretization(a, g, t_s)
+    phi, q = van_loan(a, g, t_s)
+    # the same operations in the same order: the same floats
+    np.testing.assert_array_equal(phi, phi_ref)
+    np.testing.assert_array_equal(q, q_ref)
+
+
+def test_the_kf_design_is_filterpys_and_its_filter_a_separate_copy() -> None:
+    kf = AltitudeKF(AltitudeModel(), q_a=0.5, q_d=0.05, q_b=1e-6)
+    a_c, _ = AltitudeKF.continuous_model(AltitudeModel())
+    _, q_ref = van_loan_discretization(a_c, np.diag([0.0, 0.0, 0.5**0.5, 0.05**0.5, 1e-3]), kf.T_s)
+    np.testing.assert_array_equal(kf.Q, 0.5 * (q_ref + q_ref.T))
+    ref = kf.kf
+    assert ref is kf.kf  # built once
+    for name in ("F", "B", "H", "Q", "R"):
+        np.testing.assert_array_equal(getattr(ref, name), getattr(kf, name))
+        assert not np.shares_memory(getattr(ref, name), getattr(kf, name))
+
+
+def test_the_flight_code_does_not_import_python_control_or_filterpy() -> None:
+    """Start-up cost: python-control (with scipy.signal and matplotlib) and filterpy (with
+    scipy.stats and scipy.ndimage) are for the tests."""
     import subprocess
     import sys
 
     code = ("import sys, flightcode.loop; "
-            "print(sorted(m for m in sys.modules if m == 'control' or m.startswith(('control.', 'matplotlib'))))")
+            "print(sorted(m for m in sys.modules if m in ('control', 'filterpy', 'scipy.stats', 'scipy.ndimage') "
+            "or m.startswith(('control.', 'matplotlib', 'filterpy.'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
 
