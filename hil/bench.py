@@ -120,6 +120,10 @@ class TickDevices(Protocol):
 
 
 TickHook = Callable[[int, int], None]
+#: realtime: called after each tick's bookkeeping with the next tick's deadline (host
+#: monotonic ns): work that may wait for the time the tick leaves (hil/run.py: the criteria's
+#: per-chunk work); it must return before the deadline
+SlackWork = Callable[[int], None]
 #: awaited before every lockstep tick on virtual time (the pytest plugin: tick only while the
 #: test awaits the bench, so sim time stands still while test code runs)
 TickGate = Callable[[], Awaitable[None]]
@@ -161,6 +165,7 @@ class TickLoop:
         self.attach_timeout_s = attach_timeout_s
         self.on_fallback = on_fallback
         self.tick_gate: TickGate | None = None
+        self.slack_work: SlackWork | None = None
         self.fallback_reason = ""
         self.stats = TickStats(clock=Clock.REALTIME if mode is Mode.REALTIME else Clock.WALL)
         self.t_ns = -int(boot_timeout_s * 1e9)
@@ -425,6 +430,8 @@ class TickLoop:
                     self.after_tick(k, t_ns)
                 stats.tick_cost_ns.append(work + clock.monotonic_ns() - after)
                 stats.ticks += 1
+                if pacer is not None and self.slack_work is not None:
+                    self.slack_work(stats.wall_start_ns + t_ns + tick_ns)
             return EndReason.COMPLETED
         finally:
             if pacer is not None:

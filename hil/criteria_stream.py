@@ -22,7 +22,7 @@ and dropped.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -314,16 +314,26 @@ class CriteriaStream:
             except (KeyError, ValueError) as exc:
                 self._evaluators.append(None)
                 self._errors.append(exc)
-        stream.subscribe(self._feed)
+        # One subscriber per criterion: a deferred stream (realtime) hands chunks over one
+        # call at a time in the ticks' spare time, and one criterion's work fits in it where
+        # all of them (up to 2.3 ms) did not.
+        for i in range(len(self.criteria)):
+            stream.subscribe(self._feeder(i))
 
-    def _feed(self, chunk: Chunk) -> None:
-        for i, e in enumerate(self._evaluators):
-            if e is None or self._errors[i] is not None:
-                continue
-            try:
-                e.feed(chunk)
-            except Exception as exc:  # noqa: BLE001 - fails its criterion (with the reason), never the flight
-                self._errors[i] = exc
+    def _feeder(self, i: int) -> Callable[[Chunk], None]:
+        def feed(chunk: Chunk) -> None:
+            self._feed_one(i, chunk)
+
+        return feed
+
+    def _feed_one(self, i: int, chunk: Chunk) -> None:
+        e = self._evaluators[i]
+        if e is None or self._errors[i] is not None:
+            return
+        try:
+            e.feed(chunk)
+        except Exception as exc:  # noqa: BLE001 - fails its criterion (with the reason), never the flight
+            self._errors[i] = exc
 
     def results(self) -> list[CriterionResult]:
         """Every criterion's verdict (the stream is finished first)."""

@@ -220,6 +220,25 @@ def default_log_path(out_dir: Path, rig: Rig, scenario: Scenario, seed: int) -> 
     return out_dir / f"{utc}_{rig.name}_{scenario.name}_s{seed}.mcap"
 
 
+#: realtime: chunk work stops this long before the next tick's deadline: the pacer's spin
+#: (clock.SPIN_NS) and one subscriber call (one criterion on a chunk: 0.1-0.3 ms)
+SLACK_MARGIN_NS = 600_000
+#: realtime: with more chunks than this queued, a tick makes one call even without slack,
+#: so a host too busy to leave any still delivers (late ticks rather than an unbounded queue)
+SLACK_MAX_QUEUED = 2
+
+
+def pump_before(stream: TraceStream, deadline_ns: int) -> int:
+    """Realtime: hand queued chunks to the stream's subscribers until ``SLACK_MARGIN_NS``
+    before ``deadline_ns`` (host monotonic ns); returns the calls made."""
+    stop_ns = deadline_ns - SLACK_MARGIN_NS
+    calls = stream.pump(lambda: clock.monotonic_ns() < stop_ns)
+    if calls == 0 and stream.queued_chunks > SLACK_MAX_QUEUED:
+        once = iter((True,))
+        calls = stream.pump(lambda: next(once, False))
+    return calls
+
+
 async def run_flight_async(
     rig: Rig,
     scenario: Scenario,
@@ -298,7 +317,9 @@ async def run_flight_async(
         recorder.start()
     # The criteria read the run's signals as they stream (a delay line longer than the oldest
     # stamp a telemetry frame may carry), so no sample is kept for the whole run unless asked.
-    stream = TraceStream(horizon_ns=STAMP_MAX_AGE_NS + 100 * rig.tick_ns)
+    # Realtime: the criteria's work on a chunk (0.5-2.3 ms, once a second) waits for the time
+    # the ticks leave, instead of making one tick late (docs/performance.md, tenth round).
+    stream = TraceStream(horizon_ns=STAMP_MAX_AGE_NS + 100 * rig.tick_ns, deferred=mode is Mode.REALTIME)
     trace = Trace() if keep_trace else None
     sink: TraceSink = stream if trace is None else TraceTee(stream, trace)
     logger = RunLogger(recorder, sink, devices, ports, rig, run_start_unix_ns)
@@ -357,6 +378,8 @@ async def run_flight_async(
         vclock=vt.clock if vt is not None else None,
         on_fallback=lambda why: note(f"lockstep on the host clock (load changes the flight): {why}"),
     )
+    if stream.deferred:
+        loop.slack_work = lambda deadline_ns: pump_before(stream, deadline_ns)
     runner.attach_flight(flight)
     if on_ready is not None:
         on_ready(loop, devices, runner)

@@ -97,10 +97,13 @@ def flights(draw) -> dict[str, object]:
 Results = list[CriterionResult]
 
 
-def fly(flight: dict[str, object], crits: list[Criterion]) -> tuple[Results, Results, TraceStream]:
-    """Batch and streamed results of ``crits`` on one synthetic flight."""
+def fly(flight: dict[str, object], crits: list[Criterion],
+        calls_per_tick: int | None = None) -> tuple[Results, Results, TraceStream]:
+    """Batch and streamed results of ``crits`` on one synthetic flight; ``calls_per_tick``:
+    a deferred stream (realtime), pumped this many subscriber calls after every tick."""
     trace = Trace()
-    stream = TraceStream(horizon_ns=int(flight["max_delay_ns"]) + TICK_NS, chunk_ticks=int(flight["chunk_ticks"]))
+    stream = TraceStream(horizon_ns=int(flight["max_delay_ns"]) + TICK_NS, chunk_ticks=int(flight["chunk_ticks"]),
+                         deferred=calls_per_tick is not None)
     sink = TraceTee(trace, stream)
     sink.define("truth", {"a": 1, "b": 1})
     sink.define("esc", {"p": 3})
@@ -113,6 +116,9 @@ def fly(flight: dict[str, object], crits: list[Criterion]) -> tuple[Results, Res
             sink.point("tm.x", stamp, v)
         sink.row("truth", t_ns, flight["truth"][k])  # type: ignore[index]
         sink.row("esc", t_ns, flight["esc"][k])  # type: ignore[index]
+        if calls_per_tick is not None:
+            budget = iter(range(calls_per_tick))
+            stream.pump(lambda: next(budget, None) is not None)
     for _, stamp, v in points:
         sink.point("tm.x", stamp, v)
     return evaluate(crits, trace), streamed.results(), stream
@@ -135,6 +141,16 @@ def assert_same(batch: list[CriterionResult], streamed: list[CriterionResult]) -
 def test_streaming_equals_batch(flight: dict[str, object], crits: list[Criterion]) -> None:
     batch, streamed, stream = fly(flight, crits)
     assert stream.late_points == 0
+    assert_same(batch, streamed)
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(flight=flights(), crits=st.lists(criteria(), min_size=1, max_size=4), calls=st.integers(0, 3))
+def test_a_deferred_stream_pumped_in_slices_equals_batch(flight: dict[str, object], crits: list[Criterion],
+                                                        calls: int) -> None:
+    """Realtime: the criteria's chunks reach them a few calls a tick (none at all: at the end)."""
+    batch, streamed, stream = fly(flight, crits, calls_per_tick=calls)
+    assert stream.late_points == 0 and stream.queued_chunks == 0
     assert_same(batch, streamed)
 
 

@@ -78,3 +78,28 @@ def test_no_command_does_not_hold_the_tick_and_is_counted() -> None:
     assert loop.stats.no_command == 19  # each sample but the last was followed by the next
     assert all(s.t_arrival_host_ns is None for s in devices.latencies)
     assert 0 < RT_ANSWER_SHARE < 1
+
+
+def test_slack_work_gets_each_next_deadline_after_the_bookkeeping() -> None:
+    devices = _Devices(answer_s=0.0003)
+    seen: list[tuple[int, bool]] = []
+    loop = _loop(devices, 10, seen)
+    calls: list[tuple[int, int]] = []  # (ticks whose bookkeeping ran, deadline)
+    loop.slack_work = lambda deadline_ns: calls.append((len(seen), deadline_ns))
+    asyncio.run(loop.run())
+    start = loop.stats.wall_start_ns
+    assert calls == [(k + 1, start + (k + 1) * TICK_NS) for k in range(10)]
+
+
+def test_lockstep_has_no_slack_work() -> None:
+    """Lockstep ticks have no deadline; the tick loop never calls slack work there (the
+    wall-clock lockstep path shares the realtime loop)."""
+    devices = _Devices(answer_s=0.0)
+    loop = TickLoop(
+        devices,  # type: ignore[arg-type]
+        mode=Mode.LOCKSTEP, tick_ns=TICK_NS, duration_ns=4 * TICK_NS, barrier_timeout_s=0.5, boot_timeout_s=1.0,
+    )
+    called: list[int] = []
+    loop.slack_work = called.append
+    asyncio.run(loop.run())
+    assert loop.stats.ticks == 5 and called == []
