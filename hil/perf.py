@@ -6,7 +6,7 @@
   as a subprocess, recording) and the bench's own cost per tick, interleaved with the bare
   lockstep skeleton (``hil.skeleton``: the same exchanges over ptys with pyserial, nothing
   else), so the ratio says how much of what the transport allows the bench reaches; and the
-  ceiling the flight code's own CPU per sample sets on the RTF, whatever the bench costs;
+  ceiling the flight-code process's CPU per sample sets on the RTF while it costs that much;
 * realtime: the IMU emit-period error (the pacer's lateness) and the flight code's response
   latency (IMU emitted -> ESC command) p50/p99/max, next to a bare timer loop measured in
   the same process right before (the floor of this machine).
@@ -99,14 +99,15 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         rep.add("lockstep bench CPU per tick (median)", statistics.median(cpus), "us",
                 "the bench process's CPU over the tick loop / ticks: the tick's work and serving the flight "
                 "code's requests (target <= 150 us)")
-        # In lockstep the flight code's CPU per sample elapses inside every tick, whatever the
-        # bench costs: 2.5 ms over it bounds the RTF from above (the targets' feasibility).
+        # In lockstep the flight-code process's CPU per sample elapses inside every tick: 2.5 ms
+        # over it bounds the RTF from above while that process costs this much.
         fc_us = statistics.median(fc)
         ceiling = TICK_US / fc_us
-        rep.add("lockstep flight code CPU per sample (median of p50)", fc_us, "us",
-                "the flight code's own work per IMU sample in the runs above (not the bench's)")
-        rep.add("lockstep RTF ceiling set by the flight code", ceiling, "x",
-                f"2.5 ms / its CPU per sample: no bench, however cheap, runs this hover faster; "
+        rep.add("lockstep flight-code process CPU per sample (median of p50)", fc_us, "us",
+                "all its threads in the runs above: the loop's compute, its serial I/O and the clock "
+                "shim's work in it; it grows when other processes compete for the cores")
+        rep.add("lockstep RTF ceiling at that flight-code CPU", ceiling, "x",
+                f"2.5 ms / the CPU per sample above, whatever the bench's own tick costs; "
                 f"/ skeleton = {ceiling / statistics.median(skel):.3g}")
         rep.add("lockstep tick work (median of p50)", statistics.median(costs), "us",
                 "wall time of the tick's own steps (plant, emitting, recording), without the waits")
