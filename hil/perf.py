@@ -28,9 +28,6 @@ import numpy as np
 from hil import clock
 
 
-#: one 400 Hz tick of sim time, us
-TICK_US = 2500.0
-
 
 @dataclass
 class PerfReport:
@@ -64,7 +61,8 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
 
     rep = PerfReport()
     rep.rows.append(("compiled parts (device models, plant, tick path)", native.describe(), "setup.py; HIL_PURE_PYTHON=1 builds them interpreted"))
-    rig_plant = load_rig(None).plant
+    rig = load_rig(None)
+    rig_plant = rig.plant
     plant = measure_tick_cost(20_000, params=rig_plant)
     rep.add(
         "plant tick (median)", plant["tick_median_us"], "us",
@@ -102,12 +100,12 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         # In lockstep the flight-code process's CPU per sample elapses inside every tick: 2.5 ms
         # over it bounds the RTF from above while that process costs this much.
         fc_us = statistics.median(fc)
-        ceiling = TICK_US / fc_us
+        ceiling = rig.tick_ns / 1e3 / fc_us
         rep.add("lockstep flight-code process CPU per sample (median of p50)", fc_us, "us",
                 "all its threads in the runs above: the loop's compute, its serial I/O and the clock "
                 "shim's work in it; it grows when other processes compete for the cores")
         rep.add("lockstep RTF ceiling at that flight-code CPU", ceiling, "x",
-                f"2.5 ms / the CPU per sample above, whatever the bench's own tick costs; "
+                f"the {rig.tick_ns / 1e6:g} ms tick / the CPU per sample above, whatever the bench's own tick costs; "
                 f"/ skeleton = {ceiling / statistics.median(skel):.3g}")
         rep.add("lockstep tick work (median of p50)", statistics.median(costs), "us",
                 "wall time of the tick's own steps (plant, emitting, recording), without the waits")

@@ -231,6 +231,8 @@ SLACK_MAX_QUEUED = 2
 def pump_before(stream: TraceStream, deadline_ns: int) -> int:
     """Realtime: hand queued chunks to the stream's subscribers until ``SLACK_MARGIN_NS``
     before ``deadline_ns`` (host monotonic ns); returns the calls made."""
+    if not stream.queued_chunks:  # most ticks: nothing to build a closure for
+        return 0
     stop_ns = deadline_ns - SLACK_MARGIN_NS
     calls = stream.pump(lambda: clock.monotonic_ns() < stop_ns)
     if calls == 0 and stream.queued_chunks > SLACK_MAX_QUEUED:

@@ -117,8 +117,9 @@ class AltitudeKF:
         a_d, b_d = zoh(a_c, b_c, self.T_s)
         g = np.diag([0.0, 0.0, math.sqrt(q_a), math.sqrt(q_d), math.sqrt(q_b)])
         _, q_d_matrix = van_loan(a_c, g, self.T_s)
-        #: The design: F (5, 5), B (5, 1), H (2, 5), Q (5, 5), R (2, 2), for a T_s period.
-        self.F = np.asarray(a_d, dtype=float)
+        #: The design: F (5, 5), B (5, 1), H (2, 5), Q (5, 5), R (2, 2), for a T_s period
+        #: (contiguous: the per-sample products read F and Q as they are).
+        self.F = np.array(a_d, dtype=float)
         self.B = np.asarray(b_d, dtype=float)
         self.H = h
         # Symmetrise: Van Loan's product is symmetric only to rounding.
@@ -134,10 +135,8 @@ class AltitudeKF:
         self.baro_reject_run = 0
         self._p0 = np.diag([float(r_baro_m2)] + [float(v) for v in P0_DIAG_REST[1:]])
         # Per-sample working arrays (no allocation on the tick path).
-        self._F = np.array(self.F)
         self._Ft = np.array(self.F.T)
         self._B = np.array(self.B[:, 0])
-        self._Q = np.array(self.Q)
         self._x = np.zeros(5)
         self._x_next = np.zeros(5)
         self._v5 = np.zeros(5)
@@ -190,13 +189,13 @@ class AltitudeKF:
             self.counters["nonfinite_input"] += 1
             u_throttle_dev = 0.0
         x, xn, P, m = self._x, self._x_next, self._P, self._m55
-        np.dot(self._F, x, out=xn)
+        np.dot(self.F, x, out=xn)
         np.multiply(self._B, u_throttle_dev, out=self._v5)
         xn += self._v5
         self._x, self._x_next = xn, x
-        np.dot(self._F, P, out=m)
+        np.dot(self.F, P, out=m)
         np.dot(m, self._Ft, out=P)
-        P += self._Q
+        P += self.Q
         np.add(P, P.T, out=m)  # re-symmetrise (the rank-one updates are symmetric only to rounding)
         np.multiply(m, 0.5, out=P)
 
