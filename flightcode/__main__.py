@@ -13,9 +13,11 @@ Everything goes to stderr as logfmt lines (see :mod:`flightcode.log`).
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import traceback
+from collections.abc import MutableMapping
 from types import FrameType
 
 import serial
@@ -27,6 +29,19 @@ from flightcode.gc_policy import LoopCollector
 from flightcode.log import Logger
 
 EXIT_OK, EXIT_INTERNAL, EXIT_CONFIG, EXIT_DEVICE = 0, 1, 2, 3
+
+#: The thread-pool settings of the BLAS libraries numpy and scipy may load (OpenBLAS, an
+#: OpenMP build, MKL).
+BLAS_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def single_threaded_blas(environ: MutableMapping[str, str]) -> None:
+    """Ask for one BLAS thread unless the environment says otherwise (read once, when numpy
+    loads: call this before). The loop's matrices are 5x5: worker threads would not speed it
+    up, only add threads that wake up beside it. numpy and scipy each load an OpenBLAS that
+    starts a worker per extra core, two threads more on a two-core computer."""
+    for var in BLAS_THREAD_VARS:
+        environ.setdefault(var, "1")
 
 
 class Shutdown(Exception):
@@ -143,4 +158,5 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
+    single_threaded_blas(os.environ)  # this process only: main() may run inside a test
     sys.exit(main())

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import asyncio
+import os
 import signal
 import sys
 from pathlib import Path
 
 import pytest
 
-from flightcode.__main__ import EXIT_CONFIG, EXIT_DEVICE, main
+from flightcode.__main__ import BLAS_THREAD_VARS, EXIT_CONFIG, EXIT_DEVICE, main, single_threaded_blas
 from hil.transport.pty import PtyPort
 from tests.unit.flightcode.fakes import FakeBusPirate, FakeCaptureRc, FakeMaestro, FakeXsens
 
@@ -36,6 +37,12 @@ def test_missing_device_exits_3_naming_it(tmp_path: Path, capsys: pytest.Capture
     assert main(["--config", str(cfg)]) == EXIT_DEVICE
     err = capsys.readouterr().err
     assert "device 'imu' failed at boot: cannot open" in err and "no-imu" in err
+
+
+def test_blas_thread_settings_are_set_unless_given() -> None:
+    environ = {"OMP_NUM_THREADS": "4"}
+    single_threaded_blas(environ)
+    assert environ == {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "4", "MKL_NUM_THREADS": "1"}
 
 
 class PtyDevice:
@@ -84,10 +91,13 @@ async def test_real_ptys_boot_fly_disarmed_and_sigterm(tmp_path: Path) -> None:
     cfg = tmp_path / "vehicle.toml"
     cfg.write_text(_config({n: p.path for n, p in ports.items()},
                            "[rc.capture]\nlock_frames = 2\n[adc.baro]\nzero_average_s = 0.05\n"))
+    env = {k: v for k, v in os.environ.items() if k not in BLAS_THREAD_VARS}  # the flight code's own choice
     proc = await asyncio.create_subprocess_exec(sys.executable, "-m", "flightcode", "--config", str(cfg),
-                                                cwd=ROOT, stderr=asyncio.subprocess.PIPE)
+                                                cwd=ROOT, stderr=asyncio.subprocess.PIPE, env=env)
     try:
         await asyncio.wait_for(measuring.wait(), 30)  # python-control/filterpy imports take seconds
+        # numpy and scipy loaded (the loop runs): still one thread, no BLAS workers beside it
+        assert os.listdir(f"/proc/{proc.pid}/task") == [str(proc.pid)]
         for k in range(100):  # lockstep: a sample, then wait for its ESC command
             command.clear()
             t_ns = k * 2_500_000
