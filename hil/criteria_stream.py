@@ -22,7 +22,8 @@ and dropped.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
+from functools import partial
 
 import numpy as np
 
@@ -318,13 +319,7 @@ class CriteriaStream:
         # call at a time in the ticks' spare time, and one criterion's work fits in it where
         # all of them (up to 2.3 ms) did not.
         for i in range(len(self.criteria)):
-            stream.subscribe(self._feeder(i))
-
-    def _feeder(self, i: int) -> Callable[[Chunk], None]:
-        def feed(chunk: Chunk) -> None:
-            self._feed_one(i, chunk)
-
-        return feed
+            stream.subscribe(partial(self._feed_one, i))
 
     def _feed_one(self, i: int, chunk: Chunk) -> None:
         e = self._evaluators[i]

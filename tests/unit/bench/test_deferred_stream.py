@@ -97,3 +97,35 @@ def test_pump_before_makes_one_call_when_too_much_is_queued() -> None:
 
 def test_the_margin_leaves_room_for_the_pacers_spin() -> None:
     assert SLACK_MARGIN_NS > clock.SPIN_NS
+
+
+def test_a_deferred_stream_without_subscribers_queues_nothing() -> None:
+    stream = TraceStream(horizon_ns=0, chunk_ticks=2, deferred=True)
+    stream.define("truth", {"a": 1})
+    _feed(stream, range(7))
+    assert stream.queued_chunks == 0 and stream.pump(lambda: True) == 0
+    stream.finish()
+
+
+def test_released_chunks_keep_their_values_while_the_stream_goes_on() -> None:
+    # a chunk's arrays are views of the stream's held arrays: the rows appended and released
+    # after it must not show through
+    chunks: list[Chunk] = []
+    stream = TraceStream(horizon_ns=2 * TICK_NS, chunk_ticks=3)
+    stream.define("esc", {"b": 1})
+    stream.define("truth", {"a": 2})
+    stream.subscribe(chunks.append)
+    n = 50
+    for k in range(n):
+        stream.row("esc", k * TICK_NS, (10.0 * k,))
+        stream.point("tm.x", k * TICK_NS - TICK_NS, -float(k))
+        stream.row("truth", k * TICK_NS, (float(k), -float(k)))
+    stream.finish()
+    assert len(chunks) > 5
+    k = np.arange(n)
+    np.testing.assert_array_equal(np.concatenate([c.t_ns for c in chunks]), k * TICK_NS)
+    np.testing.assert_array_equal(np.concatenate([c.rows["truth"] for c in chunks]), np.column_stack([k, -k]))
+    np.testing.assert_array_equal(np.concatenate([c.rows["esc"] for c in chunks]), 10.0 * k[:, None])
+    points = [c.points["tm.x"] for c in chunks if "tm.x" in c.points]
+    np.testing.assert_array_equal(np.concatenate([p[0] for p in points]), k * TICK_NS - TICK_NS)
+    np.testing.assert_array_equal(np.concatenate([p[1] for p in points]), -k.astype(float))
