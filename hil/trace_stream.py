@@ -167,17 +167,14 @@ class TraceStream:
         if not final and n < self.chunk_ticks:
             self._check_at = len(self._rows[self.grid].times) + self.chunk_ticks // 4
             return
-        # The chunk's arrays are views of the held arrays' memory, not copies: every held array
-        # a view is taken of is replaced by its unreleased rest right after (an array that
-        # exports its buffer cannot grow), so nothing writes to it again. In realtime the
-        # release runs inside a tick.
-        t_ns = np.frombuffer(self._rows[self.grid].times, dtype=np.int64, count=n)
+        grid_t = self._rows[self.grid].times
+        t_ns = np.array(grid_t[:n], dtype=np.int64)
         rows: dict[str, np.ndarray] = {}
         for group, pending in self._rows.items():
-            if group != self.grid and not np.array_equal(np.frombuffer(pending.times, dtype=np.int64, count=n), t_ns):
+            if group != self.grid and pending.times[:n] != grid_t[:n]:
                 raise ValueError(f"trace group {group!r} is not on the {self.grid!r} tick grid")
             cut = n * pending.width
-            rows[group] = np.frombuffer(pending.values, dtype=np.float64, count=cut).reshape(n, pending.width)
+            rows[group] = np.array(pending.values[:cut], dtype=np.float64).reshape(n, pending.width)
             pending.times, pending.values = pending.times[n:], pending.values[cut:]
         boundary = int(t_ns[-1]) if n else self._released_t_ns
         points: dict[str, tuple[np.ndarray, np.ndarray]] = {}
@@ -187,8 +184,7 @@ class TraceStream:
                 continue
             if self._released_t_ns is not None:
                 self.late_points += bisect.bisect_right(times, self._released_t_ns, 0, j)
-            points[name] = (np.frombuffer(times, dtype=np.int64, count=j),
-                            np.frombuffer(values, dtype=np.float64, count=j))
+            points[name] = (np.array(times[:j], dtype=np.int64), np.array(values[:j], dtype=np.float64))
             self._points[name] = (times[j:], values[j:])
         if n:
             self._released_t_ns = boundary

@@ -108,8 +108,8 @@ def test_a_deferred_stream_without_subscribers_queues_nothing() -> None:
 
 
 def test_released_chunks_keep_their_values_while_the_stream_goes_on() -> None:
-    # a chunk's arrays are views of the stream's held arrays: the rows appended and released
-    # after it must not show through
+    # what the stream appends and releases after a chunk must not show through it (the
+    # chunk's arrays may not share memory with what the stream still holds)
     chunks: list[Chunk] = []
     stream = TraceStream(horizon_ns=2 * TICK_NS, chunk_ticks=3)
     stream.define("esc", {"b": 1})
