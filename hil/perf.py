@@ -28,7 +28,6 @@ import numpy as np
 from hil import clock
 
 
-
 @dataclass
 class PerfReport:
     rows: list[tuple[str, str, str]] = field(default_factory=list)  #: (figure, value, note)
@@ -62,12 +61,12 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
     rep = PerfReport()
     rep.rows.append(("compiled parts (device models, plant, tick path)", native.describe(), "setup.py; HIL_PURE_PYTHON=1 builds them interpreted"))
     rig = load_rig(None)
-    rig_plant = rig.plant
-    plant = measure_tick_cost(20_000, params=rig_plant)
+    tick_ms = rig.tick_ns / 1e6
+    plant = measure_tick_cost(20_000, params=rig.plant)
     rep.add(
         "plant tick (median)", plant["tick_median_us"], "us",
         f"p99 {plant['tick_p99_us']:.3g} us; {plant['substeps']:.0f} RK4 sub-steps (default rig); "
-        f"{plant['budget_pct']:.1f} % of the 2.5 ms tick",
+        f"{plant['budget_pct']:.1f} % of the {tick_ms:g} ms tick",
     )
     with tempfile.TemporaryDirectory() as tmp:
         rec = measure_recording(Path(tmp))
@@ -97,15 +96,15 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         rep.add("lockstep bench CPU per tick (median)", statistics.median(cpus), "us",
                 "the bench process's CPU over the tick loop / ticks: the tick's work and serving the flight "
                 "code's requests (target <= 150 us)")
-        # In lockstep the flight-code process's CPU per sample elapses inside every tick: 2.5 ms
+        # In lockstep the flight-code process's CPU per sample elapses inside every tick: the tick
         # over it bounds the RTF from above while that process costs this much.
         fc_us = statistics.median(fc)
-        ceiling = rig.tick_ns / 1e3 / fc_us
+        ceiling = tick_ms * 1e3 / fc_us
         rep.add("lockstep flight-code process CPU per sample (median of p50)", fc_us, "us",
                 "all its threads in the runs above: the loop's compute, its serial I/O and the clock "
                 "shim's work in it; it grows when other processes compete for the cores")
         rep.add("lockstep RTF ceiling at that flight-code CPU", ceiling, "x",
-                f"the {rig.tick_ns / 1e6:g} ms tick / the CPU per sample above, whatever the bench's own tick costs; "
+                f"the {tick_ms:g} ms tick / the CPU per sample above, whatever the bench's own tick costs; "
                 f"/ skeleton = {ceiling / statistics.median(skel):.3g}")
         rep.add("lockstep tick work (median of p50)", statistics.median(costs), "us",
                 "wall time of the tick's own steps (plant, emitting, recording), without the waits")
