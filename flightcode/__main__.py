@@ -68,7 +68,10 @@ def open_ports(cfg: FlightConfig) -> dict[str, SerialLike]:
     p = cfg.ports
     specs: list[tuple[str, dict[str, object]]] = [
         ("imu", {"timeout": cfg.failsafe.imu_timeout_s}),
-        ("adc", {"timeout": cfg.adc.read_timeout_s}),
+        # a non-blocking write: pyserial follows a blocking write with a select for room,
+        # one system call more every sample for 24 bytes that always fit (a short write
+        # is counted and the bridge re-entered: flightcode/drivers/buspirate_spi.py)
+        ("adc", {"timeout": cfg.adc.read_timeout_s, "write_timeout": 0}),
         ("rc", {"timeout": 0} if cfg.rc.frontend == "capture"
          else {"timeout": 0, "parity": serial.PARITY_EVEN, "stopbits": serial.STOPBITS_TWO}),
         ("esc", {"timeout": 0, "write_timeout": 0}),

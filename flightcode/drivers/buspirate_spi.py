@@ -411,8 +411,12 @@ class BusPirateSpi:
         if port.in_waiting:  # nothing is owed, so these bytes are junk: never let them shift a reply
             self.counters["unexpected_input"] += 1
             port.reset_input_buffer()
-        port.write(wire)
+        written = port.write(wire)
         self.counters["requests"] += 1
+        if written is not None and written < len(wire):  # the port is non-blocking
+            self.counters["short_writes"] += 1
+            self.lose_sync("short_write", reply_in_flight=True)  # the bridge holds a torn request
+            return None
         size = sum(n + 3 for n in lengths)
         reply = port.read(size)
         if len(reply) == size:

@@ -259,7 +259,10 @@ class CaptureRcInput:
 
     def poll(self, t_ns: int) -> RcFrame | None:
         """Read whatever arrived (non-blocking) and decode it; returns a new frame if any."""
-        data = self.port.read(4096)
+        n = self.port.in_waiting  # an ioctl: cheaper than the select of an empty read
+        if not n:
+            return None
+        data = self.port.read(n)
         if not data:
             return None
         if self._last_rx_ns is not None and t_ns - self._last_rx_ns > self._stale_ns:

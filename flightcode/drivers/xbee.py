@@ -192,7 +192,10 @@ class XbeeTelemetryLink:
 
     def drain(self) -> None:
         """Read and parse whatever the modem sent (non-blocking)."""
-        data = self.port.read(4096)
+        n = self.port.in_waiting  # an ioctl: cheaper than the select of an empty read
+        if not n:
+            return
+        data = self.port.read(n)
         if not data:
             return
         for frame in self.parser.feed(data):

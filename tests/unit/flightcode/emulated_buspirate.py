@@ -63,6 +63,8 @@ class EmulatedBusPiratePort:
         self.device.take_output()  # the power-up banner: flushed by the host's open
         self.t_ns = 0  #: sensor time of the sample being read (the analog inputs follow it)
         self.writes: list[bytes] = []
+        #: the next write takes only this many bytes (a full output buffer; the port is non-blocking)
+        self.short_next: int | None = None
         self.flushes = 0
         self.discarded = 0  #: bytes thrown away by reset_input_buffer
         self._in_flight: list[tuple[float, bytes]] = []
@@ -114,6 +116,8 @@ class EmulatedBusPiratePort:
 
     def write(self, data: bytes) -> int:
         data = bytes(data)
+        if self.short_next is not None:
+            data, self.short_next = data[: self.short_next], None
         self.writes.append(data)
         self.device.receive(data, self.t_ns)
         reply = self.device.take_output()

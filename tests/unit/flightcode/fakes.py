@@ -56,15 +56,23 @@ class FakeSerial:
         self.accept_limit: int | None = None  # write accepts at most this many bytes (short writes)
         self.closed = False
         self.reads = 0
+        #: an unplugged USB adapter: every call on the hung-up tty fails with EIO
+        self.unplugged = False
+
+    def _check(self) -> None:
+        if self.unplugged:
+            raise OSError(5, "Input/output error")
 
     @property
     def in_waiting(self) -> int:
+        self._check()
         return len(self.rx)
 
     def feed(self, data: bytes) -> None:
         self.rx += data
 
     def read(self, size: int = 1) -> bytes:
+        self._check()
         self.reads += 1
         if len(self.rx) < size:
             self.on_starve()
@@ -75,6 +83,7 @@ class FakeSerial:
         return out
 
     def write(self, data: bytes) -> int:
+        self._check()
         data = bytes(data)
         if self.accept_limit is not None:
             data = data[: self.accept_limit]

@@ -228,6 +228,20 @@ def test_a_lost_reply_is_given_up_after_reply_timeout_and_the_bridge_reentered()
     assert first * TICK_WALL_S <= 0.2 + 0.03 + 250 * TICK_WALL_S / 2.5 + 0.01
 
 
+@pytest.mark.parametrize("taken", [0, 1, 10, 23])
+def test_a_short_write_costs_its_sample_and_the_bridge_is_reentered(taken: int) -> None:
+    # The port is non-blocking (write_timeout=0): a full output buffer takes part of the
+    # request. The bridge then holds a torn transfer; nothing it answers may be read as data.
+    reader, bridge, port, clock, _ = make()
+    bridge.enter_spi()
+    assert None not in run(reader, port, clock, 0, 5)
+    port.short_next = taken
+    got = run(reader, port, clock, 5, 1200)  # asserts that no sample is misread
+    assert got[0] is None
+    assert bridge.counters["short_writes"] == 1 and bridge.counters["sync_lost_short_write"] == 1
+    assert bridge.counters["resyncs"] == 1 and bridge.in_sync and got[-1] is not None
+
+
 # -- any schedule: never a misread, always recovers -----------------------------------------------------
 @settings(max_examples=25, deadline=None)
 @given(delays=st.lists(st.sampled_from([50e-6, 0.004, 0.019, 0.021, 0.05, 0.12, 0.19]), min_size=1, max_size=30),
