@@ -21,6 +21,12 @@ Responses (all H(0) = 1):
 * :func:`window_average`: the mean over the preceding window T (integrate and dump, as a
   strapdown-integrating IMU's per-sample output): (1 - e^(-j omega T)) / (j omega T).
 
+The complex functions above are the reference. The devices evaluate the same responses
+per sample with the ``*_ri`` functions and :func:`sensed_tones`, which carry a complex number
+as a (real, imaginary) pair of floats: compiled (setup.py), a float pair is native
+arithmetic while a ``complex`` is a boxed object and a closure an allocation per call
+(tests/unit/vibration/test_float_pairs.py holds the two to the same values).
+
 Pure functions of their arguments; no I/O, no clock.
 """
 
@@ -28,7 +34,7 @@ from __future__ import annotations
 
 import cmath
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from typing import Protocol
 
 Vec3 = tuple[float, float, float]
@@ -86,9 +92,13 @@ def window_average(omega_radps: float, window_s: float) -> complex:
 def tone_value(tone: Tone, h: complex, dt_s: float) -> Vec3:
     """One tone through response ``h`` (its H(j omega)) at ``dt_s`` after the tone's reference
     time: Re{h (re + j im) e^(j (phase + omega dt))}, per axis."""
+    return tone_value_ri(tone, h.real, h.imag, dt_s)
+
+
+def tone_value_ri(tone: Tone, hr: float, hi: float, dt_s: float) -> Vec3:
+    """:func:`tone_value` with the response as ``hr + j hi``."""
     phi = tone.phase_rad + tone.omega_radps * dt_s
     c, s = math.cos(phi), math.sin(phi)
-    hr, hi = h.real, h.imag
     re, im = tone.re, tone.im
     # Re{(hr + j hi)(a + j b)(c + j s)} with (a + j b) one axis' amplitude
     return (
@@ -98,12 +108,41 @@ def tone_value(tone: Tone, h: complex, dt_s: float) -> Vec3:
     )
 
 
-def sum_tones(tones: Iterable[Tone], response: Callable[[float], complex], dt_s: float) -> Vec3:
-    """Sum of ``tones`` through ``response(omega_radps) -> H(j omega)`` (the same for every
-    axis) at ``dt_s`` after their reference time."""
+def lowpass_ri(omega_radps: float, f3db_Hz: float, order: int) -> tuple[float, float]:
+    """:func:`lowpass` as (real, imaginary): 1 / (p + j q) with p + j q the denominator of
+    :func:`first_order` (order 1) or :func:`butterworth2` (order 2)."""
+    if order not in (1, 2):
+        raise ValueError(f"order must be 1 or 2, got {order}")
+    if not (0.0 < f3db_Hz < math.inf):
+        return 1.0, 0.0
+    x = omega_radps / (2.0 * math.pi * f3db_Hz)
+    if order == 1:
+        p, q = 1.0, x
+    else:
+        p, q = 1.0 - x * x, math.sqrt(2.0) * x
+    n = p * p + q * q
+    return p / n, -q / n
+
+
+def window_average_ri(omega_radps: float, window_s: float) -> tuple[float, float]:
+    """:func:`window_average` as (real, imaginary): (1 - e^(-j x)) / (j x) =
+    sin(x) / x + j (cos(x) - 1) / x, x = omega T."""
+    x = omega_radps * window_s
+    if abs(x) < 1e-9:
+        return 1.0, 0.0
+    return math.sin(x) / x, (math.cos(x) - 1.0) / x
+
+
+def sensed_tones(tones: Iterable[Tone], f3db_Hz: float, order: int, window_s: float, dt_s: float) -> Vec3:
+    """Sum of ``tones`` through :func:`lowpass_ri` (``f3db_Hz``, ``order``) times
+    :func:`window_average_ri` (``window_s``; 0: none) at ``dt_s`` after their reference
+    time, per axis: what a sensor with that bandwidth and averaging reads."""
     x = y = z = 0.0
     for tone in tones:
-        vx, vy, vz = tone_value(tone, response(tone.omega_radps), dt_s)
+        w = tone.omega_radps
+        lr, li = lowpass_ri(w, f3db_Hz, order)
+        ar, ai = window_average_ri(w, window_s)
+        vx, vy, vz = tone_value_ri(tone, lr * ar - li * ai, lr * ai + li * ar, dt_s)
         x += vx
         y += vy
         z += vz

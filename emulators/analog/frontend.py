@@ -110,12 +110,12 @@ class AnalogFrontEnd:
         self._t_ns: int | None = None
         self._init_state(self._static(P_SEA_LEVEL_PA, (0.0, 0.0, -G0_MPS2), 25.0))
         # Vibration: volts per m/s^2 from body axes to each sensor axis (the linear part of
-        # static_V), and per wired accel channel its tones as (omega, phase, complex volts
-        # after the sensor and conditioning RCs), referred to _vib_t_ns.
+        # static_V), and per wired accel channel its tones as (omega, phase, real and
+        # imaginary volts after the sensor and conditioning RCs), referred to _vib_t_ns.
         self._vib_V_per_mps2 = (
             (self.accel.sensitivity_V_per_g[:, None] * (self.accel.cross_axis @ self.accel.R_SB)) / G0_MPS2
         ).tolist()
-        self._vib: dict[int, list[tuple[float, float, complex]]] = {}
+        self._vib: dict[int, list[tuple[float, float, float, float]]] = {}
         self._vib_t_ns = 0
 
     # -- dynamics ----------------------------------------------------------------------
@@ -157,7 +157,7 @@ class AnalogFrontEnd:
             if self._vib:
                 self._vib = {}
             return
-        vib: dict[int, list[tuple[float, float, complex]]] = {}
+        vib: dict[int, list[tuple[float, float, float, float]]] = {}
         for ch, sig in self._wired:
             if sig == 0:
                 continue
@@ -168,8 +168,12 @@ class AnalogFrontEnd:
                 w, re, im = tone.omega_radps, tone.re, tone.im
                 a = row[0] * re[0] + row[1] * re[1] + row[2] * re[2]
                 b = row[0] * im[0] + row[1] * im[1] + row[2] * im[2]
-                h = 1.0 / (complex(1.0, w * tau_s) * complex(1.0, w * tau_rc))  # sensor RC, then the channel's
-                out.append((w, tone.phase_rad, h * complex(a, b)))
+                # (a + j b) / ((1 + j w tau_s)(1 + j w tau_rc)): the sensor's RC, then the
+                # channel's, with the denominator as p + j q (floats: native when compiled)
+                x, y = w * tau_s, w * tau_rc
+                p, q = 1.0 - x * y, x + y
+                n = p * p + q * q
+                out.append((w, tone.phase_rad, (a * p + b * q) / n, (b * p - a * q) / n))
             vib[ch] = out
         self._vib = vib
 
@@ -179,9 +183,9 @@ class AnalogFrontEnd:
             return 0.0
         dt_s = (t_ns - self._vib_t_ns) * 1e-9
         v = 0.0
-        for w, phase, c in tones:
+        for w, phase, cr, ci in tones:
             phi = phase + w * dt_s
-            v += c.real * math.cos(phi) - c.imag * math.sin(phi)
+            v += cr * math.cos(phi) - ci * math.sin(phi)
         return v * self.accel_fault.scale
 
     def volts(self, channel: int, t_ns: int) -> float:

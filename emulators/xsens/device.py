@@ -176,13 +176,8 @@ class MtiDevice(ByteDevice):
             period = self._schedule.period_ns or 1_000_000_000 // self.params.sample_rate_hz
             window_s = period * 1e-9
 
-        def acc(w: float) -> complex:
-            return vibration.lowpass(w, r.acc_bandwidth_Hz, order) * vibration.window_average(w, window_s)
-
-        def gyr(w: float) -> complex:
-            return vibration.lowpass(w, r.gyro_bandwidth_Hz, order) * vibration.window_average(w, window_s)
-
-        return vibration.sum_tones(f_tones, acc, dt_s), vibration.sum_tones(omega_tones, gyr, dt_s)
+        return (vibration.sensed_tones(f_tones, r.acc_bandwidth_Hz, order, window_s, dt_s),
+                vibration.sensed_tones(omega_tones, r.gyro_bandwidth_Hz, order, window_s, dt_s))
 
     # -- fault hooks ------------------------------------------------------------------------
     def set_silenced(self, on: bool) -> None:
