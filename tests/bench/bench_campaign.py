@@ -6,12 +6,12 @@ A campaign of ``--cases`` lockstep hover flights (``rigs/scenarios/hover.toml``,
 logs not kept, so unrecorded) is run once per worker count, in the order given. For each:
 wall time, flights per hour, the speed-up over the first count, and the machine's busy
 share of its cores during the campaign (from /proc/stat). Right before each campaign, the
-same number of copies of a fixed CPU-bound Python loop run side by side (median of 3): their
-speed-up over one copy is what this machine gives any CPU-bound Python work with that many
-processes, the ceiling to read the campaign's speed-up against. Then every case's criteria
-values are compared across the worker counts (all but the ``timing:`` ones, which judge the
-host's CPU time): on virtual time they must be identical, however many flights share the
-cores (more flights than cores included).
+same number of copies of a fixed CPU-bound Python loop run side by side (median of 5, in
+alternating order): their speed-up over one copy is what this machine gives any CPU-bound
+Python work with that many processes, the ceiling to read the campaign's speed-up against.
+Then every case's criteria values are compared across the worker counts (all but the
+``timing:`` ones, which judge the host's CPU time): on virtual time they must be identical,
+however many flights share the cores (more flights than cores included).
 
 Absolute times on shared machines swing 2-4x: read the ratios, and run it on a quiet machine.
 """
@@ -60,12 +60,19 @@ def _reference_wall_s(copies: int) -> float:
     return time.monotonic() - t0
 
 
-def _machine_speedup(copies: int) -> float:
-    """Throughput of ``copies`` CPU-bound processes over one (medians of 3, interleaved)."""
+def _machine_speedup(copies: int, repeats: int = 5) -> float:
+    """Throughput of ``copies`` CPU-bound processes over one (medians of ``repeats`` pairs).
+
+    After a discarded warm-up run, the pairs alternate which count runs first: run in a fixed
+    order, the first run of every pair came out about 1.4x slower (the reference of one copy
+    against itself gave 1.41x, 2026-11-26), which biased the ceiling."""
+    if copies == 1:
+        return 1.0
+    _reference_wall_s(1)
     one, many = [], []
-    for _ in range(3):
-        one.append(_reference_wall_s(1))
-        many.append(_reference_wall_s(copies))
+    for i in range(repeats):
+        for n in ((1, copies) if i % 2 == 0 else (copies, 1)):
+            (one if n == 1 else many).append(_reference_wall_s(n))
     return copies * statistics.median(one) / statistics.median(many)
 
 
