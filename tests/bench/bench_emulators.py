@@ -16,6 +16,9 @@ Pieces, each driven the way ``hil/devices.py`` drives it on every tick:
 * ``rc``: ``PpmGenerator.edges_until`` + ``CaptureFrontEnd.feed_edges`` / ``advance`` /
   ``take_output`` / ``take_events`` (``rc_capture`` is the front-end part alone).
 * ``analog``: ``AnalogFrontEnd.update`` with a moving pressure and specific force.
+* ``vibration``: four rotor tones (about 100 Hz, as in hover) through the XSENS
+  (``MtiDevice.vibration_S``, mk4 averaging) and the ADXL335 chain
+  (``AnalogFrontEnd.set_vibration`` and the three accel channels' tone volts).
 
 ``--baseline DIR`` runs the same measurement against the ``emulators`` package found in
 DIR (e.g. an export of an older commit: ``git archive HEAD~5 emulators | tar -x -C DIR``),
@@ -159,12 +162,39 @@ def _analog_tick() -> tuple[Callable[[int], None], Callable[[int], None]]:
     return prepare, timed
 
 
+def _vibration_tick() -> tuple[Callable[[int], None], Callable[[int], None]]:
+    import numpy as np
+
+    from emulators.analog.frontend import AnalogFrontEnd
+    from emulators.analog.params import AnalogParams
+    from emulators.xsens.device import MtiDevice
+    from emulators.xsens.params import XsensParams
+    from hil.plant.records import VibrationTone
+
+    imu = MtiDevice(XsensParams(), np.random.default_rng(5))
+    analog = AnalogFrontEnd(AnalogParams(), np.random.default_rng(6))
+    tones = [VibrationTone(2 * math.pi * (97.0 + 2.0 * i), 0.7 * i, (0.4, -0.2, 0.1 * i), (0.1, 0.3, -0.05))
+             for i in range(4)]
+
+    def prepare(t_ns: int) -> None:
+        pass
+
+    def timed(t_ns: int) -> None:
+        imu.vibration_S(tones, tones, 1e-4)
+        analog.set_vibration(t_ns, tones)
+        for ch in (1, 2, 3):
+            analog.volts(ch, t_ns)
+
+    return prepare, timed
+
+
 PIECES: dict[str, Callable[[], tuple[Callable[[int], None], Callable[[int], None]]]] = {
     "adc": _adc_tick,
     "imu": _imu_tick,
     "rc": lambda: _rc_tick(False),
     "rc_capture": lambda: _rc_tick(True),
     "analog": _analog_tick,
+    "vibration": _vibration_tick,
 }
 
 
