@@ -398,9 +398,11 @@ class BusPirateSpi:
         per-sample path: the same four conversions every sample). ``t_ns`` is sensor time.
 
         Returns the MISO bytes of each transfer, or None when this sample has no data: the
-        previous reply is still owed, a re-entry is in progress, or this reply was short
-        (counted ``late_replies``: its rest is collected at the next sample) or malformed
-        (counted ``bad_ack``: the bridge is re-entered). Blocks at most the port's read timeout.
+        previous reply is still owed, a re-entry is in progress, the request went out short
+        (the port does not block on writes; counted ``short_writes``: the bridge is
+        re-entered), or this reply was short (counted ``late_replies``: its rest is collected
+        at the next sample) or malformed (counted ``bad_ack``: the bridge is re-entered).
+        Blocks at most the port's read timeout.
         """
         state = self.state
         if state is LinkState.REPLY_PENDING and not self._collect_late():
