@@ -38,6 +38,14 @@ class SerialLike(Protocol):
         """Close the port."""
 
 
+def read_waiting(port: SerialLike) -> bytes:
+    """What has arrived on ``port``, without waiting (b"" when nothing has). Asks
+    ``in_waiting`` (an ``ioctl``) first: on most samples nothing has come, and a read would
+    spend a ``select`` to find that out."""
+    n = port.in_waiting
+    return port.read(n) if n else b""
+
+
 class DeviceError(RuntimeError):
     """A device did not answer (or answered wrongly) while it was being brought up.
 

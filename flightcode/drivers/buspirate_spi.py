@@ -35,7 +35,7 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 from enum import Enum, IntEnum, unique
 
-from flightcode.drivers.base import DeviceError, SerialLike
+from flightcode.drivers.base import DeviceError, SerialLike, read_waiting
 from flightcode.log import Logger
 
 ACK = 0x01
@@ -347,8 +347,7 @@ class BusPirateSpi:
             return False  # replies come later: the next samples poll them
         seq = self._entry
         assert seq is not None
-        n = self.port.in_waiting
-        self._entry_step(seq, self.port.read(n) if n else b"")
+        self._entry_step(seq, read_waiting(self.port))
         if seq.state is EntryState.DONE:
             self.state = LinkState.READY
             self._entry = None

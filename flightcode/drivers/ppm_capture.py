@@ -33,7 +33,7 @@ from collections import Counter
 from dataclasses import dataclass
 from typing import Literal
 
-from flightcode.drivers.base import SerialLike
+from flightcode.drivers.base import SerialLike, read_waiting
 
 SYNC = 0xA5
 RECORD_LEN = 6
@@ -259,10 +259,7 @@ class CaptureRcInput:
 
     def poll(self, t_ns: int) -> RcFrame | None:
         """Read whatever arrived (non-blocking) and decode it; returns a new frame if any."""
-        n = self.port.in_waiting  # an ioctl: cheaper than the select of an empty read
-        if not n:
-            return None
-        data = self.port.read(n)
+        data = read_waiting(self.port)
         if not data:
             return None
         if self._last_rx_ns is not None and t_ns - self._last_rx_ns > self._stale_ns:

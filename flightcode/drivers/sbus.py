@@ -24,7 +24,7 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass
 
-from flightcode.drivers.base import SerialLike
+from flightcode.drivers.base import SerialLike, read_waiting
 from flightcode.drivers.ppm_capture import RcFrame
 
 HEADER = 0x0F
@@ -110,10 +110,7 @@ class SbusRcInput:
 
     def poll(self, t_ns: int) -> RcFrame | None:
         """Read whatever arrived (non-blocking) and decode it; returns a new frame if any."""
-        n = self.port.in_waiting  # an ioctl: cheaper than the select of an empty read
-        if not n:
-            return None
-        data = self.port.read(n)
+        data = read_waiting(self.port)
         if not data:
             return None
         new = None

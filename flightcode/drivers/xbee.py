@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections import Counter
 from enum import IntEnum, unique
 
-from flightcode.drivers.base import SerialLike
+from flightcode.drivers.base import SerialLike, read_waiting
 
 START = 0x7E
 ESCAPE = 0x7D
@@ -192,10 +192,7 @@ class XbeeTelemetryLink:
 
     def drain(self) -> None:
         """Read and parse whatever the modem sent (non-blocking)."""
-        n = self.port.in_waiting  # an ioctl: cheaper than the select of an empty read
-        if not n:
-            return
-        data = self.port.read(n)
+        data = read_waiting(self.port)
         if not data:
             return
         for frame in self.parser.feed(data):
