@@ -76,8 +76,12 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         from hil.skeleton import run_skeleton
 
         rtfs, costs, cpus, lat50, lat99, skel, fc = [], [], [], [], [], [], []
+        skel_bench, skel_flight = [], []
         for i in range(lockstep_runs):
-            skel.append(asyncio.run(run_skeleton(lockstep_s)).rtf)
+            sk = asyncio.run(run_skeleton(lockstep_s))
+            skel.append(sk.rtf)
+            skel_bench.append(sk.bench_cpu_per_tick_us)
+            skel_flight.append(sk.flight_cpu_per_tick_us)
             res = run_flight(None, "hover", mode=Mode.LOCKSTEP, duration_s=lockstep_s, out_dir=Path(tmp) / f"l{i}")
             rtfs.append(res.timing["rtf"])
             costs.append(res.timing.get("bench_cost_p50_us", float("nan")))
@@ -96,6 +100,15 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         rep.add("lockstep bench CPU per tick (median)", statistics.median(cpus), "us",
                 "the bench process's CPU over the tick loop / ticks: the tick's work and serving the flight "
                 "code's requests (target <= 150 us)")
+        # The transport's own share of that: what the skeleton's bench side spends per tick on
+        # the same writes and reads, and so what the plant, the device models, the recording and
+        # the scheduling add on top of it.
+        skel_bench_us = statistics.median(skel_bench)
+        rep.add("skeleton bench-side CPU per tick (median)", skel_bench_us, "us",
+                "hil.skeleton's bench process: the pty writes and reads and asyncio's wake-ups alone; "
+                f"flight side {statistics.median(skel_flight):.3g} us")
+        rep.add("lockstep bench CPU per tick above the skeleton's", statistics.median(cpus) - skel_bench_us, "us",
+                "the plant, the device models, recording and the virtual-time scheduling")
         # In lockstep the flight-code process's CPU per sample elapses inside every tick: the tick
         # over it bounds the RTF from above while that process costs this much.
         fc_us = statistics.median(fc)

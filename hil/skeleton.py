@@ -23,6 +23,7 @@ from __future__ import annotations
 import asyncio
 import os
 import sys
+import time
 import tty
 from dataclasses import dataclass
 
@@ -37,6 +38,11 @@ TICK_NS = 2_500_000
 class SkeletonResult:
     ticks: int
     wall_s: float
+    #: CPU per tick over the ticks, us: this process's (the bench side: the pty writes and
+    #: reads and asyncio's wake-ups, the transport's share of a bench tick) and the flight
+    #: side's (NaN where /proc/<pid>/schedstat is missing)
+    bench_cpu_per_tick_us: float = float("nan")
+    flight_cpu_per_tick_us: float = float("nan")
 
     @property
     def rtf(self) -> float:
@@ -108,6 +114,8 @@ async def run_skeleton(seconds: float) -> SkeletonResult:
         await wait_for("esc")  # the flight side is up
         need["esc"] = ESC_N
         ticks = round(seconds * 1e9 / TICK_NS)
+        flight0 = _cpu_ns(proc.pid)
+        cpu0 = time.process_time_ns()
         start = clock.monotonic_ns()
         for k in range(ticks):
             os.write(masters["imu"], imu_pkt)
@@ -117,6 +125,9 @@ async def run_skeleton(seconds: float) -> SkeletonResult:
             os.write(masters["adc"], resp)
             await wait_for("esc")
         wall_s = (clock.monotonic_ns() - start) / 1e9
+        bench_us = (time.process_time_ns() - cpu0) / max(ticks, 1) / 1e3
+        flight1 = _cpu_ns(proc.pid)
+        flight_us = (flight1 - flight0) / max(ticks, 1) / 1e3 if flight0 is not None and flight1 is not None else float("nan")
     finally:
         if proc.returncode is None:
             proc.kill()
@@ -124,7 +135,17 @@ async def run_skeleton(seconds: float) -> SkeletonResult:
         for fd in (*masters.values(), *slaves.values()):
             loop.remove_reader(fd)
             os.close(fd)
-    return SkeletonResult(ticks, wall_s)
+    return SkeletonResult(ticks, wall_s, bench_us, flight_us)
+
+
+def _cpu_ns(pid: int) -> int | None:
+    """CPU time process ``pid``'s main thread has run, ns (/proc/<pid>/schedstat; the flight
+    side has one thread)."""
+    try:
+        with open(f"/proc/{pid}/schedstat", encoding="ascii") as f:
+            return int(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return None
 
 
 if __name__ == "__main__":

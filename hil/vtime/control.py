@@ -209,15 +209,18 @@ class ControlBlock:
             pass  # the FIFO is full of wake-ups already
 
     def drain_notifications(self) -> int:
+        """Read the notifications that have come (bytes). A read shorter than asked for has
+        emptied the FIFO, so it ends there instead of reading again to fail with EAGAIN; a
+        notification after it makes the FIFO readable again."""
         n = 0
         while True:
             try:
                 got = os.read(self.notify_fd, 4096)
             except BlockingIOError:
                 return n
-            if not got:
-                return n
             n += len(got)
+            if len(got) < 4096:
+                return n
 
     # -- usage --------------------------------------------------------------------------------
     def calls(self) -> dict[str, int]:

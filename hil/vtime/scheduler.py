@@ -243,14 +243,37 @@ class VirtualClock:
             self.ctl.bump_epoch()
         return bool(written)
 
-    def _drain(self) -> None:
-        """Take in everything the flight code wrote (the poll in select flushes the work)."""
+    def _settle_io(self, wait_r: list[int], wait_w: list[int]) -> bool:
+        """Take in everything the flight code wrote, make every byte the bench wrote readable
+        at the client's end, and say whether a slave descriptor the flight code waits on
+        (``wait_r`` for reading, ``wait_w`` for writing) is ready once that is done.
+
+        One zero-timeout poll does all three: polling a pty end runs its pending flush work
+        before it reports, so each descriptor is judged after its own flush. A poll that found
+        flight-code bytes (a device may answer them) is followed by another, and the readiness
+        of the last one counts. Bumps the epoch if the bench had written anything."""
+        master = self._master
+        flushed = False
         while True:
-            readable, _, _ = select.select(self._masters, [], [], 0)
-            if not readable:
-                return
+            written = self._written.take()
+            fds = [*self._masters, *wait_r]
+            if written:
+                flushed = True
+                fds.extend(p.slave_fd for p in written)
+            readable, writable, _ = select.select(fds, wait_w, [], 0)
+            got = False
             for fd in readable:
-                self._master[fd].read_available()
+                port = master.get(fd)
+                if port is not None:
+                    port.read_available()
+                    got = True
+            if not got:
+                break
+        if flushed:
+            self.ctl.bump_epoch()
+        if writable:
+            return True
+        return any(fd in wait_r for fd in readable)
 
     # -- idle ---------------------------------------------------------------------------------------------
     def _on_notify(self) -> None:
@@ -289,12 +312,25 @@ class VirtualClock:
                     self.ctl.clear_process(t.pid)  # a child of the flight code that is gone
                     continue
                 return False
-        self._drain()
-        self.flush_written()
-        now = self.fc_ns(self.t_ns)
-        epoch = self.ctl.epoch
+        # the descriptors its waits are on, ours only (the bench does not control when any
+        # other becomes ready); judged after the bytes are settled, before the verdict
         readable: list[int] = []
         writable: list[int] = []
+        by_key = self._by_key
+        for t in threads:
+            if t.keys is None or t.futex:
+                continue
+            for key, events in t.keys:
+                port = by_key.get(key)
+                if port is None:
+                    continue
+                if events & (POLLIN | POLLPRI):
+                    readable.append(port.slave_fd)
+                if events & POLLOUT:
+                    writable.append(port.slave_fd)
+        ready = self._settle_io(readable, writable)
+        now = self.fc_ns(self.t_ns)
+        epoch = self.ctl.epoch
         for t in threads:
             if t.deadline_ns is not None and t.deadline_ns <= now:
                 self._wake(t)
@@ -304,23 +340,12 @@ class VirtualClock:
                     self._settling = True  # another thread just woke it, or it is about to sleep
                     return False
                 continue
-            if t.keys is None:  # an epoll set: only a check made after our last write counts
-                if t.seen_epoch != epoch:
-                    self._wake(t)
-                    return False
-                continue
-            for key, events in t.keys:
-                port = self._by_key.get(key)
-                if port is None:
-                    continue  # not ours: the bench does not control when it becomes ready
-                if events & (POLLIN | POLLPRI):
-                    readable.append(port.slave_fd)
-                if events & POLLOUT:
-                    writable.append(port.slave_fd)
-        if readable or writable:
-            r, w, _ = select.select(readable, writable, [], 0)
-            if r or w:
-                return False  # it is waking up (or about to) on bytes already there
+            if t.keys is None and t.seen_epoch != epoch:
+                # an epoll set: only a check made after our last write counts
+                self._wake(t)
+                return False
+        if ready:
+            return False  # it is waking up (or about to) on bytes already there
         if not all(self.ctl.seq(t.index) == t.seq for t in threads):
             return False
         if not any(t.futex and t.deadline_ns is not None for t in threads):
