@@ -102,6 +102,18 @@ class RecordSection:
 
 
 @dataclass(frozen=True)
+class RealtimeSection:
+    """How a realtime run is scheduled on the host (hil/rtsched.py, docs/time.md)."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+    #: "auto": the tick loop and the flight code on SCHED_FIFO where the host allows it, else
+    #: as before with a note; "fifo": refuse to run without it; "normal": never
+    policy: Literal["auto", "fifo", "normal"] = "auto"
+    #: the SCHED_FIFO priority (1-98; 99 is left to the kernel's own threads)
+    priority: Annotated[int, Field(ge=1, le=98)] = 50
+
+
+@dataclass(frozen=True)
 class AdcSection:
     bridge: Literal["buspirate", "spidriver"]
     mcp3204: Any
@@ -144,6 +156,7 @@ class Rig:
     flight: FlightSection
     record: RecordSection
     raw: dict[str, Any] = field(repr=False, default_factory=dict)
+    realtime: RealtimeSection = field(default_factory=RealtimeSection)
     #: ports attached to real serial devices ([ports.<port>]; hil/attach.py)
     ports: dict[str, Any] = field(default_factory=dict)
 
@@ -200,7 +213,7 @@ def load_rig(name_or_path: str | Path | None = None) -> Rig:
     data = load_toml(path)
     check_keys(
         data,
-        {"rig", "plant", "imu", "adc", "analog", "rc", "esc", "telemetry", "flight", "record", "ports"},
+        {"rig", "plant", "imu", "adc", "analog", "rc", "esc", "telemetry", "flight", "record", "realtime", "ports"},
         file=path,
         section="top level",
     )
@@ -230,6 +243,7 @@ def load_rig(name_or_path: str | Path | None = None) -> Rig:
         telemetry=TelemetrySection(parts["telemetry.vehicle"], parts["telemetry.ground"], parts["telemetry.link"]),
         flight=validate(FlightSection, _table(data, "flight"), file=path, section="flight"),
         record=validate(RecordSection, _table(data, "record"), file=path, section="record"),
+        realtime=validate(RealtimeSection, _table(data, "realtime"), file=path, section="realtime"),
         raw=data,
         ports=load_ports_table(data.get("ports", {}), file=path),
     )

@@ -36,6 +36,7 @@ from hil.devices import DeviceSet
 from hil.flightproc import FlightProcess, expand_command
 from hil.record.process import ProcessRecorder
 from hil.rig import Rig, load_rig
+from hil.rtsched import RealtimePriority, RtPolicy, RtScheduling, RtSchedError
 from hil.rundir import make_run_dir
 from hil.runlog import STAMP_MAX_AGE_NS, RunLogger
 from hil.scenario import Scenario, apply_to_rig, load_scenario
@@ -79,6 +80,8 @@ class RunResult:
     shim: ShimUsage | None = None
     #: things the user must know about this run (fallbacks, uncovered calls, stalls)
     notes: list[str] = field(default_factory=list)
+    #: realtime: the scheduling policy the tick loop and the flight code ran on (hil/rtsched.py)
+    rt_scheduling: RtScheduling | None = None
 
     @property
     def passed(self) -> bool:
@@ -286,6 +289,12 @@ async def run_flight_async(
     # Real serial ports open first, all or none: a missing/busy one leaves nothing behind.
     attachments = resolve_attachments(rig.ports, attach or {}, PORTS, command="run")
     refuse_lockstep(attachments, mode.value)
+    rt = RealtimePriority(RtPolicy(rig.realtime.policy) if mode is Mode.REALTIME else RtPolicy.NORMAL,
+                          rig.realtime.priority)
+    try:
+        rt.probe()  # "fifo" on a host that refuses it: nothing is created
+    except RtSchedError as exc:
+        raise ConfigError(f"{rig.path}: [realtime] policy = \"fifo\": {exc}") from None
     attached = open_attached(attachments, rig.port_baud)
     run_dir = make_run_dir(f"hil-{rig.name}-")
     dev_dir = run_dir / "dev"
@@ -394,6 +403,9 @@ async def run_flight_async(
     frozen = False
     try:
         hog.__enter__()
+        rt_got = rt.__enter__()
+        if rt_got.policy != "fifo" and rt.policy is RtPolicy.AUTO:
+            note(f"realtime on the default scheduling policy, so other load on this host delays ticks: {rt_got.reason}")
         await flight.start()
         try:
             await loop.boot()
@@ -421,6 +433,7 @@ async def run_flight_async(
         end, message = EndReason.INTERRUPTED, f"interrupted by {type(exc).__name__}: {exc}"
         raise
     finally:
+        rt.__exit__(None, None, None)
         if frozen:
             gc.unfreeze()
         hog.__exit__(None, None, None)
@@ -472,6 +485,7 @@ async def run_flight_async(
                 "timing": json.dumps({k: (v if math.isfinite(v) else None) for k, v in timing.items()}),
                 "clock": clock_used.value,
                 "clock_note": clock_note,
+                "rt_scheduling": rt.result.describe() if rt.result is not None and mode is Mode.REALTIME else "",
                 "cpu_scale": f"{rig.flight.cpu_scale:g}",
                 "shim_calls": json.dumps(shim.calls if shim else {}),
                 "idle_waits": json.dumps({"inline": shim.idle_waits_inline, "event_loop": shim.idle_waits_loop}
@@ -499,6 +513,7 @@ async def run_flight_async(
         clock_note=clock_note,
         shim=shim,
         notes=notes,
+        rt_scheduling=rt.result if mode is Mode.REALTIME else None,
     )
 
 

@@ -35,6 +35,8 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
         "wall": "clock: host (lockstep fallback: load can change the flight)",
         "realtime": "clock: host, realtime",
     }[result.clock.value]
+    if result.rt_scheduling is not None:
+        clock_line += f", {result.rt_scheduling.describe()}"
     console.print(f"  {clock_line}" + (f": {result.clock_note}" if result.clock_note else ""), highlight=False)
     for note in result.notes:
         console.print(f"  [yellow]note:[/] {note}", highlight=False)

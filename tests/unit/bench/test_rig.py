@@ -104,3 +104,17 @@ def test_a_gesture_too_short_for_the_flight_code_is_refused(tmp_path: Path) -> N
     bad.write_text('[scenario]\nname = "x"\nduration_s = 5\n[[sticks]]\nt_s = 1\naction = "arm"\nduration_s = 0.5\n')
     with pytest.raises(ConfigError, match=r"sticks\.0.*longer than the 1 s"):
         load_scenario(bad)
+
+
+@pytest.mark.parametrize(("body", "key"), [('policy = "always"', "policy"), ("priority = 99", "priority"),
+                                           ("priority = 0", "priority")])
+def test_a_bad_realtime_table_names_the_key(tmp_path: Path, body: str, key: str) -> None:
+    path = _rig(tmp_path, f"[realtime]\n{body}\n")
+    with pytest.raises(ConfigError) as err:
+        load_rig(path)
+    assert str(path) in str(err.value) and f"[realtime] {key}" in str(err.value)
+
+
+def test_the_realtime_table_is_read() -> None:
+    rig = load_rig(None)
+    assert (rig.realtime.policy, rig.realtime.priority) == ("auto", 50)
