@@ -19,8 +19,10 @@ from rich.console import Console
 
 from hil.attach import follow_device_rates, open_attached, resolve_attachments
 from hil.bench import Mode, TickLoop
+from hil.config import ConfigError
 from hil.devices import DeviceSet
 from hil.rig import Rig
+from hil.rtsched import RealtimePriority, RtPolicy, RtSchedError
 from hil.rundir import make_run_dir
 from hil.scenario import Scenario, apply_to_rig
 from hil.scenario_runner import ScenarioRunner
@@ -58,6 +60,13 @@ async def serve_devices(
     and nothing started); the others are ptys."""
     runner = ScenarioRunner(scenario, rig)
     attachments = resolve_attachments(rig.ports, attach or {}, DEVICE_PORTS, command="devices")
+    # the tick loop keeps its 400 Hz on a loaded host where SCHED_FIFO is allowed (the
+    # clients are the user's own processes: theirs to raise)
+    rt = RealtimePriority(RtPolicy(rig.realtime.policy), rig.realtime.priority)
+    try:
+        rt.probe()
+    except RtSchedError as exc:
+        raise ConfigError(f"{rig.path}: [realtime] policy = \"fifo\": {exc}") from None
     attached = open_attached(attachments, rig.port_baud)
     own_dir = run_dir is None
     run_dir = run_dir or make_run_dir(f"hil-devices-{rig.name}-")
@@ -103,7 +112,9 @@ async def serve_devices(
     if on_ready is not None:
         on_ready({name: port.path for name, port in ports.items()})
     try:
-        await loop.run()
+        with rt as got:
+            console.print(f"  scheduling: {got.describe()}", soft_wrap=True, highlight=False, markup=False)
+            await loop.run()
     except asyncio.CancelledError:
         console.print("stopped")
     finally:

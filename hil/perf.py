@@ -18,6 +18,7 @@ and ratios, not single values.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import statistics
 import tempfile
 from dataclasses import dataclass, field
@@ -26,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from hil import clock
+from hil.rtsched import RealtimePriority, RtPolicy
 
 
 @dataclass
@@ -36,14 +38,18 @@ class PerfReport:
         self.rows.append((figure, f"{value:.3g} {unit}".strip(), note))
 
 
-def bare_timer_loop(n: int = 2000, period_ns: int = 2_500_000) -> np.ndarray:
-    """Lateness (us) of the same pacer with no work at all: this machine's floor."""
+def bare_timer_loop(n: int = 2000, period_ns: int = 2_500_000, *,
+                    priority: RealtimePriority | None = None) -> np.ndarray:
+    """Lateness (us) of the same pacer with no work at all: this machine's floor. With
+    ``priority``, the loop runs as a realtime run's tick loop does (hil/rtsched.py), so the two
+    are compared on the same scheduling."""
 
     async def run() -> list[int]:
-        pacer = clock.RealtimePacer()
-        start = clock.monotonic_ns() + period_ns
-        late = [await pacer.wait(start + k * period_ns) for k in range(n)]
-        pacer.close()
+        with priority or contextlib.nullcontext():
+            pacer = clock.RealtimePacer()
+            start = clock.monotonic_ns() + period_ns
+            late = [await pacer.wait(start + k * period_ns) for k in range(n)]
+            pacer.close()
         return late
 
     return np.asarray(asyncio.run(run())) / 1e3
@@ -124,12 +130,17 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         rep.add("lockstep flight response p50", statistics.median(lat50), "us", "IMU written -> ESC command read, host time")
         rep.add("lockstep flight response p99", statistics.median(lat99), "us", "")
 
-        bare = bare_timer_loop()
-        rep.add("bare timer loop lateness p50", float(np.percentile(bare, 50)), "us", "same pacer, no work")
+        rt = RealtimePriority(RtPolicy(rig.realtime.policy), rig.realtime.priority)
+        bare = bare_timer_loop(priority=rt)
+        assert rt.result is not None
+        rep.add("bare timer loop lateness p50", float(np.percentile(bare, 50)), "us",
+                f"same pacer, no work, {rt.result.describe()} as the realtime run below")
         rep.add("bare timer loop lateness p99", float(np.percentile(bare, 99)), "us", f"max {bare.max():.3g} us")
         res = run_flight(None, "hover", mode=Mode.REALTIME, duration_s=realtime_s, out_dir=Path(tmp) / "rt")
         t = res.timing
-        rep.add("realtime IMU emit lateness p50", t.get("lateness_p50_us", float("nan")), "us", "tick start vs its wall deadline")
+        rep.add("realtime IMU emit lateness p50", t.get("lateness_p50_us", float("nan")), "us",
+                "tick start vs its wall deadline; "
+                + (res.rt_scheduling.describe() if res.rt_scheduling is not None else "scheduling unknown"))
         rep.add("realtime IMU emit lateness p99", t.get("lateness_p99_us", float("nan")), "us",
                 f"max {t.get('lateness_max_us', float('nan')):.3g} us, {t.get('late_ticks', 0):.0f} ticks > 1 ms late")
         rep.add("realtime flight response p50", t.get("latency_p50_us", float("nan")), "us", "IMU written -> ESC command read")

@@ -81,3 +81,16 @@ def test_the_thread_and_what_it_starts_are_raised_for_the_block() -> None:
             child.communicate(b"")
     assert seen == [(FIFO, 10)]
     assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
+
+
+def test_hil_perf_s_bare_pacer_runs_on_the_realtime_run_s_scheduling() -> None:
+    """`hil perf` compares the realtime run's lateness with the bare pacer's: both on the same
+    scheduling, and the thread is put back after the pacer's loop."""
+    from hil.perf import bare_timer_loop
+
+    before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+    rt = RealtimePriority(RtPolicy.AUTO, 10)
+    late_us = bare_timer_loop(20, 1_000_000, priority=rt)
+    assert late_us.shape == (20,) and (late_us >= 0).all()
+    assert rt.result is not None and rt.result.policy == ("fifo" if _host_allows_fifo() else "normal")
+    assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
