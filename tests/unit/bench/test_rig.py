@@ -106,10 +106,14 @@ def test_a_gesture_too_short_for_the_flight_code_is_refused(tmp_path: Path) -> N
         load_scenario(bad)
 
 
-@pytest.mark.parametrize(("body", "key"), [('policy = "always"', "policy"), ("priority = 99", "priority"),
-                                           ("priority = 0", "priority")])
-def test_a_bad_realtime_table_names_the_key(tmp_path: Path, body: str, key: str) -> None:
-    path = _rig(tmp_path, f"[realtime]\n{body}\n")
+@pytest.mark.parametrize(("old", "new", "key"), [('policy = "auto"', 'policy = "always"', "policy"),
+                                                  ("priority = 50", "priority = 99", "priority"),
+                                                  ("priority = 50", "priority = 0", "priority")])
+def test_a_bad_realtime_table_names_the_key(tmp_path: Path, old: str, new: str, key: str) -> None:
+    text = _rig(tmp_path, "").read_text()
+    assert text.count(f"\n{old} ") == 1
+    path = tmp_path / "rig2.toml"
+    path.write_text(text.replace(f"\n{old} ", f"\n{new} "))
     with pytest.raises(ConfigError) as err:
         load_rig(path)
     assert str(path) in str(err.value) and f"[realtime] {key}" in str(err.value)
