@@ -375,6 +375,11 @@ class TickLoop:
         devices, stats = self.devices, self.stats
         tick_ns = self.tick_ns
         timeout_s = self.barrier_timeout_s
+        if pacer is not None:
+            # Tick 0 is due a tick from now, not now: started at once it began 0.5-1.2 ms late
+            # (the pacer's thread starting, the hand-over), and in half the runs the flight
+            # code, on its first sample since boot, missed that sample's command.
+            stats.wall_start_ns = clock.monotonic_ns() + tick_ns
         try:
             for k in range(self.duration_ns // tick_ns + 1):
                 if self.flight_exited.is_set():

@@ -20,6 +20,7 @@ import mmap
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Final
 
 from hil import clock
 from hil.frozen import by_fields
@@ -71,22 +72,42 @@ class ThreadView:
         return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
 
 
+# The record's field positions and values, as plain ints: compiled, a Final name is a C static,
+# where ``abi.SLOT_SEQ`` would be a lookup in another module's dict (a dozen per changed slot).
+_SEQ: Final = abi.SLOT_SEQ
+_NKEYS: Final = abi.SLOT_NKEYS
+_KEY_RDEV: Final = abi.SLOT_KEY_RDEV
+_KEY_EVENTS: Final = abi.SLOT_KEY_EVENTS
+_DEADLINE: Final = abi.SLOT_DEADLINE
+_TID: Final = abi.SLOT_TID
+_PID: Final = abi.SLOT_PID
+_STATE: Final = abi.SLOT_STATE
+_CPU: Final = abi.SLOT_CPU
+_SEEN_EPOCH: Final = abi.SLOT_SEEN_EPOCH
+_SPIN_YIELDS: Final = abi.SLOT_SPIN_YIELDS
+_WAIT_KIND: Final = abi.SLOT_WAIT_KIND
+_KEYS_UNKNOWN: Final = int(abi.KEYS_UNKNOWN)
+_MAX_KEYS: Final = int(abi.MAX_KEYS)
+_NO_DEADLINE: Final = int(abi.NO_DEADLINE)
+_BLOCKED: Final = int(abi.State.BLOCKED)
+_FUTEX: Final = int(abi.Wait.FUTEX)
+
+
 def _view(index: int, raw: tuple[int, ...]) -> ThreadView:
     """The :class:`ThreadView` of slot ``index`` from its ``abi.SLOT_STRUCT`` record."""
-    seq = raw[abi.SLOT_SEQ]
-    nkeys = raw[abi.SLOT_NKEYS]
+    seq = raw[_SEQ]
+    nkeys = raw[_NKEYS]
     keys: tuple[tuple[int, int], ...] | None = None
-    if nkeys != abi.KEYS_UNKNOWN:
-        n = min(nkeys, abi.MAX_KEYS)
-        rdev, events = abi.SLOT_KEY_RDEV, abi.SLOT_KEY_EVENTS
-        keys = tuple((raw[rdev + k], raw[events + k]) for k in range(n))
-    deadline = raw[abi.SLOT_DEADLINE]
+    if nkeys != _KEYS_UNKNOWN:
+        n = min(nkeys, _MAX_KEYS)
+        keys = tuple((raw[_KEY_RDEV + k], raw[_KEY_EVENTS + k]) for k in range(n))
+    deadline = raw[_DEADLINE]
     return ThreadView(
-        index, raw[abi.SLOT_TID], raw[abi.SLOT_PID], seq,
-        bool(seq & 1) and raw[abi.SLOT_STATE] == abi.State.BLOCKED,
-        None if deadline == abi.NO_DEADLINE else deadline,
-        raw[abi.SLOT_CPU], raw[abi.SLOT_SEEN_EPOCH], keys, raw[abi.SLOT_SPIN_YIELDS],
-        raw[abi.SLOT_WAIT_KIND] == abi.Wait.FUTEX,
+        index, raw[_TID], raw[_PID], seq,
+        bool(seq & 1) and raw[_STATE] == _BLOCKED,
+        None if deadline == _NO_DEADLINE else deadline,
+        raw[_CPU], raw[_SEEN_EPOCH], keys, raw[_SPIN_YIELDS],
+        raw[_WAIT_KIND] == _FUTEX,
     )
 
 

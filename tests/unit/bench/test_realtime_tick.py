@@ -103,3 +103,18 @@ def test_lockstep_has_no_slack_work() -> None:
     loop.slack_work = called.append
     asyncio.run(loop.run())
     assert loop.stats.ticks == 5 and called == []
+
+
+def test_the_first_realtime_tick_is_due_a_tick_after_the_start() -> None:
+    """Tick 0 is scheduled one tick ahead (the pacer's thread starts, and the flight code gets
+    a whole tick for its first sample), so it is not late by construction; every later
+    deadline follows from it."""
+    from hil import clock
+
+    devices = _Devices(answer_s=0.0003)
+    seen: list[tuple[int, bool]] = []
+    loop = _loop(devices, 5, seen)
+    before_ns = clock.monotonic_ns()
+    asyncio.run(loop.run())
+    assert loop.stats.wall_start_ns >= before_ns + TICK_NS
+    assert len(seen) == 5
