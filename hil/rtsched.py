@@ -51,14 +51,14 @@ class RtSchedError(Exception):
 
 @dataclass(frozen=True)
 class RtScheduling:
-    """What a realtime run got: ``fifo`` and its priority, or ``normal`` and why."""
+    """What a realtime run got: FIFO and its priority, or NORMAL and why."""
 
-    policy: str  #: "fifo" or "normal"
+    policy: RtPolicy  #: FIFO or NORMAL (what was applied, never AUTO)
     priority: int = 0
-    reason: str = ""  #: why not "fifo" (empty when it is)
+    reason: str = ""  #: why not FIFO (empty when it is)
 
     def describe(self) -> str:
-        return f"SCHED_FIFO priority {self.priority}" if self.policy == "fifo" else f"SCHED_OTHER ({self.reason})"
+        return f"SCHED_FIFO priority {self.priority}" if self.policy is RtPolicy.FIFO else f"SCHED_OTHER ({self.reason})"
 
 
 def _refusal(priority: int, exc: OSError) -> str:
@@ -75,7 +75,7 @@ class RealtimePriority:
         self.priority = priority
         self._set: SetScheduler = setscheduler or os.sched_setscheduler
         self._saved: tuple[int, os.sched_param] | None = None
-        self.result = RtScheduling("normal", 0, "policy = \"normal\"") if policy is RtPolicy.NORMAL else None
+        self.result = RtScheduling(RtPolicy.NORMAL, 0, "policy = \"normal\"") if policy is RtPolicy.NORMAL else None
 
     def probe(self) -> None:
         """``policy = "fifo"``: raise :class:`RtSchedError` now if the host refuses SCHED_FIFO,
@@ -95,10 +95,10 @@ class RealtimePriority:
             why = _refusal(self.priority, exc)
             if self.policy is RtPolicy.FIFO:
                 raise RtSchedError(why) from exc
-            self.result = RtScheduling("normal", 0, why)
+            self.result = RtScheduling(RtPolicy.NORMAL, 0, why)
             return self.result
         self._saved = saved
-        self.result = RtScheduling("fifo", self.priority)
+        self.result = RtScheduling(RtPolicy.FIFO, self.priority)
         return self.result
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,

@@ -404,7 +404,7 @@ async def run_flight_async(
     try:
         hog.__enter__()
         rt_got = rt.__enter__()
-        if rt_got.policy != "fifo" and rt.policy is RtPolicy.AUTO:
+        if rt_got.policy is not RtPolicy.FIFO and rt.policy is RtPolicy.AUTO:
             note(f"realtime on the default scheduling policy, so other load on this host delays ticks: {rt_got.reason}")
         await flight.start()
         try:

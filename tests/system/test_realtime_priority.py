@@ -14,14 +14,13 @@ import pytest
 from hil.bench import EndReason, Mode, TickLoop
 from hil.config import ConfigError
 from hil.rig import load_rig
+from hil.rtsched import RealtimePriority, RtPolicy, RtSchedError
 from tests.system.conftest import explain
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
 
 
 def _host_allows_fifo() -> bool:
-    from hil.rtsched import RealtimePriority, RtPolicy, RtSchedError
-
     try:
         RealtimePriority(RtPolicy.FIFO, 10).probe()
     except RtSchedError:
@@ -55,10 +54,10 @@ async def test_the_tick_loop_and_the_flight_code_run_fifo_and_the_recorder_does_
     assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
     assert result.rt_scheduling is not None
     if not _host_allows_fifo():
-        assert result.rt_scheduling.policy == "normal"
+        assert result.rt_scheduling.policy is RtPolicy.NORMAL
         assert any("default scheduling policy" in n for n in result.notes)
         return
-    assert result.rt_scheduling.policy == "fifo" and result.rt_scheduling.priority == 50
+    assert result.rt_scheduling.policy is RtPolicy.FIFO and result.rt_scheduling.priority == 50
     assert seen["bench"] == seen["pacer"] == os.SCHED_FIFO
     assert (seen["flight"], seen["flight_priority"]) == (os.SCHED_FIFO, 50)
     assert seen["others"] == os.SCHED_OTHER  # the recorder child

@@ -33,7 +33,7 @@ def test_auto_on_a_host_that_refuses_runs_as_before_and_says_why() -> None:
     before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
     rt = RealtimePriority(RtPolicy.AUTO, 50, setscheduler=_refuse)
     with rt as got:
-        assert got.policy == "normal"
+        assert got.policy is RtPolicy.NORMAL
         assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
     assert "SCHED_FIFO priority 50 was refused" in got.reason and "ulimit -r" in got.reason
     assert got.describe().startswith("SCHED_OTHER (")
@@ -51,7 +51,7 @@ def test_normal_never_asks() -> None:
     asked: list[int] = []
     with RealtimePriority(RtPolicy.NORMAL, 50, setscheduler=lambda pid, p, prm: asked.append(pid)) as got:
         pass
-    assert got.policy == "normal" and asked == []
+    assert got.policy is RtPolicy.NORMAL and asked == []
 
 
 def test_the_thread_and_what_it_starts_are_raised_for_the_block() -> None:
@@ -60,7 +60,7 @@ def test_the_thread_and_what_it_starts_are_raised_for_the_block() -> None:
     flight code) started in the block inherit it."""
     if not _host_allows_fifo():
         got = RealtimePriority(RtPolicy.AUTO, 10).__enter__()
-        assert got.policy == "normal" and "refused" in got.reason
+        assert got.policy is RtPolicy.NORMAL and "refused" in got.reason
         return
     before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
     seen: list[tuple[int, int]] = []
@@ -69,7 +69,7 @@ def test_the_thread_and_what_it_starts_are_raised_for_the_block() -> None:
         seen.append((os.sched_getscheduler(0), os.sched_getparam(0).sched_priority))
 
     with RealtimePriority(RtPolicy.AUTO, 10) as got:
-        assert got.policy == "fifo" and got.describe() == "SCHED_FIFO priority 10"
+        assert got.policy is RtPolicy.FIFO and got.describe() == "SCHED_FIFO priority 10"
         assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == (FIFO, 10)
         thread = threading.Thread(target=in_thread)
         thread.start()
@@ -92,5 +92,5 @@ def test_hil_perf_s_bare_pacer_runs_on_the_realtime_run_s_scheduling() -> None:
     rt = RealtimePriority(RtPolicy.AUTO, 10)
     late_us = bare_timer_loop(20, 1_000_000, priority=rt)
     assert late_us.shape == (20,) and (late_us >= 0).all()
-    assert rt.result is not None and rt.result.policy == ("fifo" if _host_allows_fifo() else "normal")
+    assert rt.result is not None and rt.result.policy is (RtPolicy.FIFO if _host_allows_fifo() else RtPolicy.NORMAL)
     assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
