@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import os
+import shutil
 import tempfile
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -47,10 +48,28 @@ async def run_virtual(
 ) -> Outcome:
     own = run_dir is None
     run_dir = run_dir or Path(tempfile.mkdtemp(prefix="hil-vt-test-"))
+    try:  # the directory goes whatever fails, setup included (a missing shim, a bad argv)
+        return await _run_in(argv, run_dir, ports=ports, at=at, limit_ns=limit_ns, spin_limit=spin_limit,
+                             inline_wait_s=inline_wait_s)
+    finally:
+        if own:
+            shutil.rmtree(run_dir, ignore_errors=True)
+
+
+async def _run_in(
+    argv: list[str],
+    run_dir: Path,
+    *,
+    ports: Mapping[str, PtyPort] | None,
+    at: Mapping[int, Callable[[], None]] | None,
+    limit_ns: int,
+    spin_limit: int,
+    inline_wait_s: float,
+) -> Outcome:
     os.chmod(run_dir, 0o700)
-    ctl = ControlBlock(run_dir, spin_limit=spin_limit)
     library = shim_library()
     assert isinstance(library, Path), library
+    ctl = ControlBlock(run_dir, spin_limit=spin_limit)
     env = dict(os.environ) | ctl.env(library)
     vc = VirtualClock(ctl, ports or {}, inline_wait_s=inline_wait_s)
     vc.start(0)
@@ -88,9 +107,5 @@ async def run_virtual(
         calls, uncovered = ctl.calls(), ctl.uncovered()
         vc.close()
         ctl.close()
-        if own:
-            import shutil
-
-            shutil.rmtree(run_dir, ignore_errors=True)
     return Outcome(proc.returncode or 0, stdout.decode(), stderr.decode(), calls, uncovered, times, cpu,
                    vc.inline_waits, vc.loop_waits)

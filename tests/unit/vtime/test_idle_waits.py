@@ -150,3 +150,17 @@ async def test_a_flight_code_that_never_idles_gets_the_stall_warning_and_its_exi
         await proc.wait()
         vc.close()
         ctl.close()
+
+
+async def test_the_harness_removes_its_run_directory_when_setup_fails(monkeypatch: pytest.MonkeyPatch,
+                                                                      tmp_path: Path) -> None:
+    """A setup failure (here: no clock shim) must not leave the harness's directory behind."""
+    import tempfile
+
+    import tests.unit.vtime.harness as harness
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    monkeypatch.setattr(harness, "shim_library", lambda: "no shim here")
+    with pytest.raises(AssertionError, match="no shim here"):
+        await run_virtual([sys.executable, "-c", "pass"])
+    assert list(tmp_path.iterdir()) == []
