@@ -19,10 +19,9 @@ from rich.console import Console
 
 from hil.attach import follow_device_rates, open_attached, resolve_attachments
 from hil.bench import Mode, TickLoop
-from hil.config import ConfigError
 from hil.devices import DeviceSet
 from hil.rig import Rig
-from hil.rtsched import RealtimePriority, RtPolicy, RtSchedError
+from hil.rtsched import for_rig
 from hil.rundir import make_run_dir
 from hil.scenario import Scenario, apply_to_rig
 from hil.scenario_runner import ScenarioRunner
@@ -62,11 +61,7 @@ async def serve_devices(
     attachments = resolve_attachments(rig.ports, attach or {}, DEVICE_PORTS, command="devices")
     # the tick loop keeps its 400 Hz on a loaded host where SCHED_FIFO is allowed (the
     # clients are the user's own processes: theirs to raise)
-    rt = RealtimePriority(RtPolicy(rig.realtime.policy), rig.realtime.priority)
-    try:
-        rt.probe()
-    except RtSchedError as exc:
-        raise ConfigError(f"{rig.path}: [realtime] policy = \"fifo\": {exc}") from None
+    rt = for_rig(rig)
     attached = open_attached(attachments, rig.port_baud)
     own_dir = run_dir is None
     run_dir = run_dir or make_run_dir(f"hil-devices-{rig.name}-")

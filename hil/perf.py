@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from hil import clock
-from hil.rtsched import RealtimePriority, RtPolicy
+from hil.rtsched import RealtimePriority, for_rig
 
 
 @dataclass
@@ -130,7 +130,7 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         rep.add("lockstep flight response p50", statistics.median(lat50), "us", "IMU written -> ESC command read, host time")
         rep.add("lockstep flight response p99", statistics.median(lat99), "us", "")
 
-        rt = RealtimePriority(RtPolicy(rig.realtime.policy), rig.realtime.priority)
+        rt = for_rig(rig)
         bare = bare_timer_loop(priority=rt)
         assert rt.result is not None
         rep.add("bare timer loop lateness p50", float(np.percentile(bare, 50)), "us",

@@ -34,6 +34,10 @@ import resource
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import TracebackType
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from hil.rig import Rig
 
 #: what sched_setscheduler is called through (tests put a refusing one in its place)
 SetScheduler = Callable[[int, int, os.sched_param], None]
@@ -107,3 +111,27 @@ class RealtimePriority:
             policy, param = self._saved
             self._saved = None
             os.sched_setscheduler(0, policy, param)
+
+
+def for_rig(rig: Rig, *, realtime: bool = True) -> RealtimePriority:
+    """The rig's ``[realtime]`` scheduling for a run (``realtime=False``: a lockstep run, never
+    raised). ``policy = "fifo"`` on a host that refuses it is a :class:`~hil.config.ConfigError`
+    naming the rig file and the key, raised here, before the run creates anything."""
+    from hil.config import ConfigError
+
+    section = rig.realtime
+    rt = RealtimePriority(RtPolicy(section.policy) if realtime else RtPolicy.NORMAL, section.priority)
+    try:
+        rt.probe()
+    except RtSchedError as exc:
+        raise ConfigError(f"{rig.path}: [realtime] policy = \"fifo\": {exc}") from None
+    return rt
+
+
+def fifo_allowed(priority: int = 1) -> bool:
+    """Whether this process may run on SCHED_FIFO at ``priority`` (its policy is left as it was)."""
+    try:
+        RealtimePriority(RtPolicy.FIFO, priority).probe()
+    except RtSchedError:
+        return False
+    return True

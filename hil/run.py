@@ -36,7 +36,8 @@ from hil.devices import DeviceSet
 from hil.flightproc import FlightProcess, expand_command
 from hil.record.process import ProcessRecorder
 from hil.rig import Rig, load_rig
-from hil.rtsched import RealtimePriority, RtPolicy, RtScheduling, RtSchedError
+from hil import rtsched
+from hil.rtsched import RtPolicy, RtScheduling
 from hil.rundir import make_run_dir
 from hil.runlog import STAMP_MAX_AGE_NS, RunLogger
 from hil.scenario import Scenario, apply_to_rig, load_scenario
@@ -289,12 +290,7 @@ async def run_flight_async(
     # Real serial ports open first, all or none: a missing/busy one leaves nothing behind.
     attachments = resolve_attachments(rig.ports, attach or {}, PORTS, command="run")
     refuse_lockstep(attachments, mode.value)
-    rt = RealtimePriority(RtPolicy(rig.realtime.policy) if mode is Mode.REALTIME else RtPolicy.NORMAL,
-                          rig.realtime.priority)
-    try:
-        rt.probe()  # "fifo" on a host that refuses it: nothing is created
-    except RtSchedError as exc:
-        raise ConfigError(f"{rig.path}: [realtime] policy = \"fifo\": {exc}") from None
+    rt = rtsched.for_rig(rig, realtime=mode is Mode.REALTIME)  # "fifo" refused: nothing is created yet
     attached = open_attached(attachments, rig.port_baud)
     run_dir = make_run_dir(f"hil-{rig.name}-")
     dev_dir = run_dir / "dev"

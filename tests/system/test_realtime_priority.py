@@ -14,18 +14,14 @@ import pytest
 from hil.bench import EndReason, Mode, TickLoop
 from hil.config import ConfigError
 from hil.rig import load_rig
-from hil.rtsched import RealtimePriority, RtPolicy, RtSchedError
+from hil.rtsched import RtPolicy, fifo_allowed
 from tests.system.conftest import explain
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
 
 
 def _host_allows_fifo() -> bool:
-    try:
-        RealtimePriority(RtPolicy.FIFO, 10).probe()
-    except RtSchedError:
-        return False
-    return True
+    return fifo_allowed(10)
 
 
 async def test_the_tick_loop_and_the_flight_code_run_fifo_and_the_recorder_does_not(fly, tmp_path: Path) -> None:
