@@ -21,6 +21,7 @@ from hil.attach import follow_device_rates, open_attached, resolve_attachments
 from hil.bench import Mode, TickLoop
 from hil.devices import DeviceSet
 from hil.rig import Rig
+from hil import cpulatency
 from hil.rtsched import for_rig
 from hil.rundir import make_run_dir
 from hil.scenario import Scenario, apply_to_rig
@@ -62,6 +63,7 @@ async def serve_devices(
     # the tick loop keeps its 400 Hz on a loaded host where SCHED_FIFO is allowed (the
     # clients are the user's own processes: theirs to raise)
     rt = for_rig(rig)
+    wake = cpulatency.for_rig(rig)  # the clients' answers come sooner from a polling idle CPU
     attached = open_attached(attachments, rig.port_baud)
     own_dir = run_dir is None
     run_dir = run_dir or make_run_dir(f"hil-devices-{rig.name}-")
@@ -107,8 +109,9 @@ async def serve_devices(
     if on_ready is not None:
         on_ready({name: port.path for name, port in ports.items()})
     try:
-        with rt as got:
-            console.print(f"  scheduling: {got.describe()}", soft_wrap=True, highlight=False, markup=False)
+        with wake as held, rt as got:
+            console.print(f"  scheduling: {got.describe()}; {held.describe()}", soft_wrap=True, highlight=False,
+                          markup=False)
             await loop.run()
     except asyncio.CancelledError:
         console.print("stopped")

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hil import clock
+from hil import clock, cpulatency
 from hil.rtsched import RealtimePriority, for_rig
 
 
@@ -74,7 +74,12 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         f"p99 {plant['tick_p99_us']:.3g} us; {plant['substeps']:.0f} RK4 sub-steps (default rig); "
         f"{plant['budget_pct']:.1f} % of the {tick_ms:g} ms tick",
     )
-    with tempfile.TemporaryDirectory() as tmp:
+    # Everything below wakes processes on idle CPUs: the skeleton and the bare pacer hold the
+    # rig's CPU latency request as the runs do (hil/cpulatency.py), so the ratios compare like
+    # with like.
+    with tempfile.TemporaryDirectory() as tmp, cpulatency.for_rig(rig) as held:
+        rep.rows.append(("host CPU wake-up latency", held.describe(), "rig [host] cpu_latency; the runs and the "
+                         "references below alike"))
         rec = measure_recording(Path(tmp))
         rep.add("record log() call (median)", rec.log_us_median, "us", f"p99 {rec.log_us_p99:.3g} us, on the tick path")
         rep.add("record writer rate", rec.writer_msgs_per_s, "msg/s", "writer thread, zstd 64 KiB chunks")

@@ -114,6 +114,19 @@ class RealtimeSection:
 
 
 @dataclass(frozen=True)
+class HostSection:
+    """What a run asks of the host's CPUs, in lockstep and realtime (hil/cpulatency.py)."""
+
+    __pydantic_config__ = {"extra": "forbid"}
+    #: "auto": hold the kernel's CPU latency request (/dev/cpu_dma_latency) at cpu_latency_us
+    #: for the run where the host allows it, else run without with a note; "require": refuse
+    #: to run without it; "off": never ask (idle CPUs then sleep, and every wake-up is slower)
+    cpu_latency: Literal["auto", "require", "off"] = "auto"
+    #: the wake-up latency asked for, in us (0: the idle CPUs poll)
+    cpu_latency_us: Annotated[int, Field(ge=0, le=2_000_000_000)] = 0
+
+
+@dataclass(frozen=True)
 class AdcSection:
     bridge: Literal["buspirate", "spidriver"]
     mcp3204: Any
@@ -157,6 +170,7 @@ class Rig:
     record: RecordSection
     raw: dict[str, Any] = field(repr=False, default_factory=dict)
     realtime: RealtimeSection = field(default_factory=RealtimeSection)
+    host: HostSection = field(default_factory=HostSection)
     #: ports attached to real serial devices ([ports.<port>]; hil/attach.py)
     ports: dict[str, Any] = field(default_factory=dict)
 
@@ -213,7 +227,7 @@ def load_rig(name_or_path: str | Path | None = None) -> Rig:
     data = load_toml(path)
     check_keys(
         data,
-        {"rig", "plant", "imu", "adc", "analog", "rc", "esc", "telemetry", "flight", "record", "realtime", "ports"},
+        {"rig", "plant", "imu", "adc", "analog", "rc", "esc", "telemetry", "flight", "record", "realtime", "host", "ports"},
         file=path,
         section="top level",
     )
@@ -244,6 +258,7 @@ def load_rig(name_or_path: str | Path | None = None) -> Rig:
         flight=validate(FlightSection, _table(data, "flight"), file=path, section="flight"),
         record=validate(RecordSection, _table(data, "record"), file=path, section="record"),
         realtime=validate(RealtimeSection, _table(data, "realtime"), file=path, section="realtime"),
+        host=validate(HostSection, _table(data, "host"), file=path, section="host"),
         raw=data,
         ports=load_ports_table(data.get("ports", {}), file=path),
     )

@@ -36,7 +36,8 @@ from hil.devices import DeviceSet
 from hil.flightproc import FlightProcess, expand_command
 from hil.record.process import ProcessRecorder
 from hil.rig import Rig, load_rig
-from hil import rtsched
+from hil import cpulatency, rtsched
+from hil.cpulatency import CpuLatency, LatencyMode
 from hil.rtsched import RtPolicy, RtScheduling
 from hil.rundir import make_run_dir
 from hil.runlog import STAMP_MAX_AGE_NS, RunLogger
@@ -83,6 +84,8 @@ class RunResult:
     notes: list[str] = field(default_factory=list)
     #: realtime: the scheduling policy the tick loop and the flight code ran on (hil/rtsched.py)
     rt_scheduling: RtScheduling | None = None
+    #: the CPU latency request the run held, or why not (hil/cpulatency.py)
+    cpu_latency: CpuLatency | None = None
 
     @property
     def passed(self) -> bool:
@@ -291,6 +294,7 @@ async def run_flight_async(
     attachments = resolve_attachments(rig.ports, attach or {}, PORTS, command="run")
     refuse_lockstep(attachments, mode.value)
     rt = rtsched.for_rig(rig, realtime=mode is Mode.REALTIME)  # "fifo" refused: nothing is created yet
+    wake = cpulatency.for_rig(rig)  # "require" refused: likewise
     attached = open_attached(attachments, rig.port_baud)
     run_dir = make_run_dir(f"hil-{rig.name}-")
     dev_dir = run_dir / "dev"
@@ -399,6 +403,11 @@ async def run_flight_async(
     frozen = False
     try:
         hog.__enter__()
+        wake_got = wake.__enter__()
+        if not wake_got.held and wake.mode is LatencyMode.AUTO and mode is Mode.REALTIME:
+            # lockstep flies the same either way (slower): the summary's clock line says it
+            note(f"the host's idle CPUs may sleep, so every wake-up of the bench and the flight code "
+                 f"comes later and so do the responses: {wake_got.reason}")
         rt_got = rt.__enter__()
         if rt_got.policy is not RtPolicy.FIFO and rt.policy is RtPolicy.AUTO:
             note(f"realtime on the default scheduling policy, so other load on this host delays ticks: {rt_got.reason}")
@@ -430,6 +439,7 @@ async def run_flight_async(
         raise
     finally:
         rt.__exit__(None, None, None)
+        wake.__exit__(None, None, None)
         if frozen:
             gc.unfreeze()
         hog.__exit__(None, None, None)
@@ -482,6 +492,7 @@ async def run_flight_async(
                 "clock": clock_used.value,
                 "clock_note": clock_note,
                 "rt_scheduling": rt.result.describe() if rt.result is not None and mode is Mode.REALTIME else "",
+                "cpu_latency": wake.result.describe() if wake.result is not None else "",
                 "cpu_scale": f"{rig.flight.cpu_scale:g}",
                 "shim_calls": json.dumps(shim.calls if shim else {}),
                 "idle_waits": json.dumps({"inline": shim.idle_waits_inline, "event_loop": shim.idle_waits_loop}
@@ -510,6 +521,7 @@ async def run_flight_async(
         shim=shim,
         notes=notes,
         rt_scheduling=rt.result if mode is Mode.REALTIME else None,
+        cpu_latency=wake.result,
     )
 
 

@@ -38,6 +38,8 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
     if result.rt_scheduling is not None:
         clock_line += f", {result.rt_scheduling.describe()}"
     console.print(f"  {clock_line}" + (f": {result.clock_note}" if result.clock_note else ""), highlight=False)
+    if result.cpu_latency is not None:
+        console.print(f"  host: {result.cpu_latency.describe()}", highlight=False)
     for note in result.notes:
         console.print(f"  [yellow]note:[/] {note}", highlight=False)
     if result.criteria:

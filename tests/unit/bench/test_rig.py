@@ -122,3 +122,21 @@ def test_a_bad_realtime_table_names_the_key(tmp_path: Path, old: str, new: str, 
 def test_the_realtime_table_is_read() -> None:
     rig = load_rig(None)
     assert (rig.realtime.policy, rig.realtime.priority) == ("auto", 50)
+
+
+@pytest.mark.parametrize(("old", "new", "key"), [('cpu_latency = "auto"', 'cpu_latency = "poll"', "cpu_latency"),
+                                                  ("cpu_latency_us = 0", "cpu_latency_us = -1", "cpu_latency_us"),
+                                                  ("cpu_latency_us = 0", "cpu_latency_us = 2_000_000_001", "cpu_latency_us")])
+def test_a_bad_host_table_names_the_key(tmp_path: Path, old: str, new: str, key: str) -> None:
+    text = _rig(tmp_path, "").read_text()
+    assert text.count(f"\n{old} ") == 1
+    path = tmp_path / "rig2.toml"
+    path.write_text(text.replace(f"\n{old} ", f"\n{new} "))
+    with pytest.raises(ConfigError) as err:
+        load_rig(path)
+    assert str(path) in str(err.value) and f"[host] {key}" in str(err.value)
+
+
+def test_the_host_table_is_read() -> None:
+    rig = load_rig(None)
+    assert (rig.host.cpu_latency, rig.host.cpu_latency_us) == ("auto", 0)
