@@ -312,7 +312,7 @@ def perf(
     for col in ("figure", "value", "note"):
         table.add_column(col)
     for row in rep.rows:
-        table.add_row(*row)
+        table.add_row(*(escape(cell) for cell in row))  # plain text: "[host]" is not markup
     console.print(table)
 
 

@@ -78,8 +78,8 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
     # rig's CPU latency request as the runs do (hil/cpulatency.py), so the ratios compare like
     # with like.
     with tempfile.TemporaryDirectory() as tmp, cpulatency.for_rig(rig) as held:
-        rep.rows.append(("host CPU wake-up latency", held.describe(), "rig [host] cpu_latency; the runs and the "
-                         "references below alike"))
+        rep.rows.append(("host CPU wake-up latency", held.describe(), "the rig's [host] cpu_latency, held for the "
+                         "runs and the references below alike"))
         rec = measure_recording(Path(tmp))
         rep.add("record log() call (median)", rec.log_us_median, "us", f"p99 {rec.log_us_p99:.3g} us, on the tick path")
         rep.add("record writer rate", rec.writer_msgs_per_s, "msg/s", "writer thread, zstd 64 KiB chunks")
