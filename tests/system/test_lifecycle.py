@@ -111,15 +111,25 @@ async def test_killed_run_is_recoverable(tmp_path: Path) -> None:
     finally:
         if proc.poll() is None:
             proc.kill()
-    (part,) = tmp_path.glob("*.mcap.part")
+    parts = list(tmp_path.glob("*.mcap.part"))
+    if not parts:
+        # The kernel closes a dying process's files before it sends the children their
+        # PR_SET_PDEATHSIG signal: the recorder child can see its pipe close first and
+        # finish the file, marked aborted, before the signal comes (seen beside four CPU
+        # hogs). Nothing is lost then, and there is nothing to recover.
+        (done,) = tmp_path.glob("*.mcap")
+        assert read_metadata(done)["verdict"]["status"] == "aborted"
+        assert "closed the pipe" in read_metadata(done)["verdict"]["error"]
+        assert sum(message_counts(done).values()) > 1000
+        assert read_topic(done, "/sim/truth")["h_m"].size > 100
+        return
+    (part,) = parts
     try:
         message_counts(part)
     except TornRecordingError:
         pass  # the usual case: the recorder child died with the bench, mid-chunk
     else:
-        # The kernel closes a dying process's files before it sends the children their
-        # PR_SET_PDEATHSIG signal: on a loaded machine the recorder child can see its pipe
-        # close first and close the file as aborted (nothing lost), but not rename it.
+        # as above, but the signal came between the file's end and its rename
         assert read_metadata(part)["verdict"]["status"] == "aborted"
     out = tmp_path / "recovered.mcap"
     cli = subprocess.run(
