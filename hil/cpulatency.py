@@ -144,3 +144,9 @@ def for_rig(rig: Rig) -> CpuLatencyRequest:
     except CpuLatencyError as exc:
         raise ConfigError(f"{rig.path}: [host] cpu_latency = \"require\": {exc}") from None
     return request
+
+
+def allowed(target_us: int = 0) -> bool:
+    """Whether this process may hold a request of ``target_us`` (it is dropped at once)."""
+    with CpuLatencyRequest(LatencyMode.AUTO, target_us) as got:
+        return got.held

@@ -51,7 +51,7 @@ async def test_the_bench_holds_the_request_while_the_run_flies(fly, mode: Mode) 
     assert _writers_on("self", cpulatency.DEVICE) == 0  # dropped with the run
     got = result.cpu_latency
     assert got is not None
-    if not os.access(cpulatency.DEVICE, os.W_OK):  # a user without root: the run goes on, and says so
+    if not cpulatency.allowed():  # a user without root: the run goes on, and says so
         assert not got.held and str(cpulatency.DEVICE) in got.reason
         assert (mode is Mode.REALTIME) == any("idle CPUs may sleep" in n for n in result.notes)
         assert seen == {"bench": 0, "flight": 0}
@@ -95,3 +95,13 @@ async def test_require_refused_by_the_host_names_the_rig_key_and_leaves_nothing(
     assert str(rig.path) in str(err.value) and '[host] cpu_latency = "require"' in str(err.value)
     assert "no-cpu-latency-device" in str(err.value)
     assert not (tmp_path / "logs").exists()
+
+
+async def test_auto_where_refused_flies_and_says_so_in_realtime(fly, tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(cpulatency, "DEVICE", tmp_path / "no-cpu-latency-device")
+    result = await fly("hover", duration_s=0.3, mode=Mode.REALTIME)
+    assert result.end_reason is EndReason.COMPLETED, explain(result)
+    assert result.cpu_latency is not None and not result.cpu_latency.held
+    assert "no-cpu-latency-device" in result.cpu_latency.reason
+    assert any("idle CPUs may sleep" in n and "no-cpu-latency-device" in n for n in result.notes)
