@@ -102,9 +102,10 @@ class CpuLatencyRequest:
             fd = self._open(self.device, os.O_WRONLY | os.O_CLOEXEC)
         except OSError as exc:
             return self._refused(exc)
+        value = struct.pack("=i", self.target_us)  # a native s32 in microseconds
         try:
-            # the value is a native s32 in microseconds (a 10-character hex string also works)
-            os.write(fd, struct.pack("=i", self.target_us))
+            if os.write(fd, value) != len(value):
+                raise OSError(errno.EIO, "the request was not taken whole")
         except OSError as exc:
             os.close(fd)
             return self._refused(exc)
