@@ -17,11 +17,11 @@ from pathlib import Path
 
 from rich.console import Console
 
+from hil import cpulatency
 from hil.attach import follow_device_rates, open_attached, resolve_attachments
 from hil.bench import Mode, TickLoop
 from hil.devices import DeviceSet
 from hil.rig import Rig
-from hil import cpulatency
 from hil.rtsched import for_rig
 from hil.rundir import make_run_dir
 from hil.scenario import Scenario, apply_to_rig

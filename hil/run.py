@@ -405,7 +405,7 @@ async def run_flight_async(
         hog.__enter__()
         wake_got = wake.__enter__()
         if not wake_got.held and wake.mode is LatencyMode.AUTO and mode is Mode.REALTIME:
-            # lockstep flies the same either way (slower): the summary's clock line says it
+            # lockstep flies the same either way, only slower: the summary's host line says it
             note(f"the host's idle CPUs may sleep, so every wake-up of the bench and the flight code "
                  f"comes later and so do the responses: {wake_got.reason}")
         rt_got = rt.__enter__()
