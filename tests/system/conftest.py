@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -20,6 +22,24 @@ def explain(result: RunResult) -> str:
     lines.append(f"timing: { {k: round(v, 1) for k, v in result.timing.items()} }")
     lines += ["flight stderr (last lines):", *("  " + s for s in result.flight_stderr_tail)]
     return "\n".join(lines)
+
+
+def at_tick(k: int, look: Callable[[Any], None]) -> Callable[..., None]:
+    """An ``on_ready`` for a run that calls ``look(runner)`` once, right after tick ``k``
+    (after the run's own end-of-tick work): to see the processes while the run flies."""
+
+    def on_ready(loop: Any, devices: object, runner: Any) -> None:
+        logged = loop.after_tick
+
+        def after_tick(k_now: int, t_ns: int) -> None:
+            if logged is not None:
+                logged(k_now, t_ns)
+            if k_now == k:
+                look(runner)
+
+        loop.after_tick = after_tick
+
+    return on_ready
 
 
 @pytest.fixture

@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 
 from hil import cpulatency
-from hil.bench import EndReason, Mode, TickLoop
+from hil.bench import EndReason, Mode
 from hil.config import ConfigError
 from hil.rig import load_rig
-from tests.system.conftest import explain
+from tests.system.conftest import at_tick, explain
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
 
@@ -34,19 +34,11 @@ def _writers_on(pid: int | str, path: Path) -> int:
 async def test_the_bench_holds_the_request_while_the_run_flies(fly, mode: Mode) -> None:
     seen: dict[str, int] = {}
 
-    def on_ready(loop: TickLoop, devices: object, runner) -> None:
-        logged = loop.after_tick
+    def look(runner) -> None:
+        seen["bench"] = _writers_on("self", cpulatency.DEVICE)
+        seen["flight"] = _writers_on(runner.flight.pid, cpulatency.DEVICE)
 
-        def after_tick(k: int, t_ns: int) -> None:
-            if logged is not None:
-                logged(k, t_ns)
-            if k == 100:
-                seen["bench"] = _writers_on("self", cpulatency.DEVICE)
-                seen["flight"] = _writers_on(runner.flight.pid, cpulatency.DEVICE)
-
-        loop.after_tick = after_tick
-
-    result = await fly("hover", duration_s=0.5, mode=mode, on_ready=on_ready)
+    result = await fly("hover", duration_s=0.5, mode=mode, on_ready=at_tick(100, look))
     assert result.end_reason is EndReason.COMPLETED, explain(result)
     assert _writers_on("self", cpulatency.DEVICE) == 0  # dropped with the run
     got = result.cpu_latency
@@ -68,19 +60,8 @@ async def test_off_never_asks(fly) -> None:
     rig = load_rig(None)
     rig = dataclasses.replace(rig, host=dataclasses.replace(rig.host, cpu_latency="off"))
     held: list[int] = []
-
-    def on_ready(loop: TickLoop, devices: object, runner) -> None:
-        logged = loop.after_tick
-
-        def after_tick(k: int, t_ns: int) -> None:
-            if logged is not None:
-                logged(k, t_ns)
-            if k == 50:
-                held.append(_writers_on("self", cpulatency.DEVICE))
-
-        loop.after_tick = after_tick
-
-    result = await fly("hover", rig=rig, duration_s=0.2, on_ready=on_ready)
+    look = at_tick(50, lambda runner: held.append(_writers_on("self", cpulatency.DEVICE)))
+    result = await fly("hover", rig=rig, duration_s=0.2, on_ready=look)
     assert result.end_reason is EndReason.COMPLETED, explain(result)
     assert held == [0] and result.cpu_latency is not None and not result.cpu_latency.held
 

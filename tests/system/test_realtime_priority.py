@@ -11,11 +11,11 @@ from pathlib import Path
 
 import pytest
 
-from hil.bench import EndReason, Mode, TickLoop
+from hil.bench import EndReason, Mode
 from hil.config import ConfigError
 from hil.rig import load_rig
 from hil.rtsched import RtPolicy, fifo_allowed
-from tests.system.conftest import explain
+from tests.system.conftest import at_tick, explain
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
 
@@ -29,23 +29,15 @@ async def test_the_tick_loop_and_the_flight_code_run_fifo_and_the_recorder_does_
     before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
     children_before = set(_children())
 
-    def on_ready(loop: TickLoop, devices: object, runner) -> None:
-        logged = loop.after_tick
+    def look(runner) -> None:
+        seen["bench"] = os.sched_getscheduler(0)
+        seen["pacer"] = _thread_policies()["hil-pacer"]
+        seen["flight"] = os.sched_getscheduler(runner.flight.pid)
+        seen["flight_priority"] = os.sched_getparam(runner.flight.pid).sched_priority
+        others = [p for p in set(_children()) - children_before if p != runner.flight.pid]
+        seen["others"] = max((os.sched_getscheduler(p) for p in others), default=-1)
 
-        def after_tick(k: int, t_ns: int) -> None:
-            if logged is not None:
-                logged(k, t_ns)
-            if k == 200:
-                seen["bench"] = os.sched_getscheduler(0)
-                seen["pacer"] = _thread_policies()["hil-pacer"]
-                seen["flight"] = os.sched_getscheduler(runner.flight.pid)
-                seen["flight_priority"] = os.sched_getparam(runner.flight.pid).sched_priority
-                others = [p for p in set(_children()) - children_before if p != runner.flight.pid]
-                seen["others"] = max((os.sched_getscheduler(p) for p in others), default=-1)
-
-        loop.after_tick = after_tick
-
-    result = await fly("hover", duration_s=1.0, mode=Mode.REALTIME, on_ready=on_ready)
+    result = await fly("hover", duration_s=1.0, mode=Mode.REALTIME, on_ready=at_tick(200, look))
     assert result.end_reason is EndReason.COMPLETED, explain(result)
     assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
     assert result.rt_scheduling is not None
