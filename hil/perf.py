@@ -9,7 +9,9 @@
   ceiling the flight-code process's CPU per sample sets on the RTF while it costs that much;
 * realtime: the IMU emit-period error (the pacer's lateness) and the flight code's response
   latency (IMU emitted -> ESC command) p50/p99/max, next to a bare timer loop measured in
-  the same process right before (the floor of this machine).
+  the same process right before (the floor of this machine), with the steal time the run
+  saw and the host's interruptions of a thread that only runs (hil/hostnoise.py): what no
+  guest priority prevents.
 
 Numbers are medians over the runs made; machines are shared and noisy, so quote medians
 and ratios, not single values.
@@ -26,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from hil import clock, cpulatency
-from hil.rtsched import RealtimePriority, for_rig
+from hil import clock, cpulatency, hostnoise
+from hil.rtsched import RealtimePriority, RtPolicy, for_rig
 
 
 @dataclass
@@ -55,7 +57,8 @@ def bare_timer_loop(n: int = 2000, period_ns: int = 2_500_000, *,
     return np.asarray(asyncio.run(run())) / 1e3
 
 
-def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: float = 10.0) -> PerfReport:
+def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: float = 10.0,
+            noise_s: float = 5.0) -> PerfReport:
     """Run every benchmark; returns the table rows."""
     from hil import native
     from hil.bench import Mode
@@ -153,4 +156,18 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
                 f"max {t.get('latency_max_us', float('nan')):.3g} us (target <= 1000 us)")
         rep.add("realtime samples without a command", t.get("rt_no_command", float("nan")), "",
                 f"of {t.get('ticks', 0):.0f} (target 0)")
+        rep.add("realtime host steal time", t.get("host_steal_ms", float("nan")), "ms",
+                "the hypervisor's pauses of this machine's CPUs during that run (/proc/stat, 10 ms steps; "
+                "n/a: not counted here): late ticks and missed commands follow them (hil/steal.py)")
+        # What the host does to a thread that only runs, at the realtime run's priority: the
+        # pauses no guest priority prevents, which the realtime figures above include.
+        noise = hostnoise.measure(noise_s, priority=rt.result.priority if rt.result.policy is RtPolicy.FIFO else 0)
+        longest = max(noise, key=lambda c: c.longest_us)
+        rep.add(f"host interruptions > {hostnoise.THRESHOLD_US:g} us (per CPU, per 10 s)",
+                statistics.median(c.per_10s() for c in noise), "",
+                f"a thread that only reads the clock, {noise[0].policy}, {noise_s:g} s on each of {len(noise)} CPUs: "
+                + ", ".join(f"CPU {c.cpu} {len(c.gaps_ns)} ({c.lost_ms:.3g} ms lost)" for c in noise)
+                + " (hil/hostnoise.py)")
+        rep.add("longest host interruption", longest.longest_us, "us",
+                f"CPU {longest.cpu}: a sample caught by one this long misses its {tick_ms:g} ms tick")
     return rep

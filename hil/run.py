@@ -45,6 +45,7 @@ from hil.scenario import Scenario, apply_to_rig, load_scenario
 from hil.scenario_runner import ScenarioRunner
 from hil.stress import CpuHog
 from hil.signal_stream import Held
+from hil.steal import StealMeter, realtime_note
 from hil.timing import REALTIME_MAX_LATE_US, StreamingStats, realtime_held, scaled_compute_us
 from hil.trace import Trace
 from hil.trace_stream import TraceSink, TraceStream, TraceTee
@@ -400,6 +401,7 @@ async def run_flight_async(
     end = EndReason.ERROR
     message = ""
     hog = CpuHog(stress_cpu)
+    steal = StealMeter()  # the hypervisor's pauses over the tick loop (hil/steal.py)
     frozen = False
     try:
         hog.__enter__()
@@ -425,6 +427,7 @@ async def run_flight_async(
             gc.collect()
             gc.freeze()
             frozen = True
+            steal.start()
             end = await loop.run()
             if end is EndReason.FLIGHT_EXITED:
                 message = f"the flight code exited with status {flight.returncode} at t = {loop.t_ns / 1e9:.3f} s"
@@ -473,6 +476,13 @@ async def run_flight_async(
         timing = _timing_summary(loop, rig.tick_ns, telemetry_compute_us, rig.flight.cpu_scale)
         if started_ns is not None and loop.stats.wall_start_ns:
             timing["start_to_tick0_s"] = (loop.stats.wall_start_ns - started_ns) / 1e9
+        steal_ms = steal.stop()
+        if steal_ms is not None:
+            timing["host_steal_ms"] = steal_ms
+            if mode is Mode.REALTIME:
+                steal_note = realtime_note(steal_ms, loop.stats.late_ticks, loop.stats.no_command)
+                if steal_note is not None:
+                    note(steal_note)
         criteria = criteria_stream.results() if end is EndReason.COMPLETED else []
         timing_criteria = runner.timing_criteria(timing, logger)
         criteria += timing_criteria
