@@ -21,10 +21,12 @@ in windows of 0.9 s with 0.1 s asleep between them, so the kernel's real-time th
 from __future__ import annotations
 
 import multiprocessing
+import multiprocessing.connection
 import os
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+
+from hil import clock
 
 #: a step between two clock reads longer than this is an interruption (the loop's own step
 #: is well under 1 us; the guest's timer and device interrupts take a few us)
@@ -73,7 +75,7 @@ def _spin(cpu: int, seconds: float, threshold_ns: int, priority: int, out: multi
             policy = f"SCHED_FIFO priority {priority}"
         except OSError:
             pass  # measured at the default policy, and said so
-    mono = time.monotonic_ns
+    mono = clock.monotonic_ns
     gaps: list[int] = []
     measured = 0
     left = int(seconds * 1e9)
@@ -89,7 +91,7 @@ def _spin(cpu: int, seconds: float, threshold_ns: int, priority: int, out: multi
         measured += prev - start
         left -= span
         if left > 0:
-            time.sleep(_REST_S)
+            clock.sleep_until_ns(mono() + int(_REST_S * 1e9), spin_ns=0)
     out.send((measured / 1e9, gaps, policy))
     out.close()
 
