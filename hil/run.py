@@ -441,6 +441,7 @@ async def run_flight_async(
         end, message = EndReason.INTERRUPTED, f"interrupted by {type(exc).__name__}: {exc}"
         raise
     finally:
+        steal_ms = steal.stop()  # the tick loop's, before the teardown
         rt.__exit__(None, None, None)
         wake.__exit__(None, None, None)
         if frozen:
@@ -476,7 +477,6 @@ async def run_flight_async(
         timing = _timing_summary(loop, rig.tick_ns, telemetry_compute_us, rig.flight.cpu_scale)
         if started_ns is not None and loop.stats.wall_start_ns:
             timing["start_to_tick0_s"] = (loop.stats.wall_start_ns - started_ns) / 1e9
-        steal_ms = steal.stop()
         if steal_ms is not None:
             timing["host_steal_ms"] = steal_ms
             if mode is Mode.REALTIME:
