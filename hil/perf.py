@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import os
 import statistics
 import tempfile
 from dataclasses import dataclass, field
@@ -89,7 +90,7 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
 
         from hil.skeleton import run_skeleton
 
-        rtfs, costs, cpus, lat50, lat99, skel, fc = [], [], [], [], [], [], []
+        rtfs, costs, cpus, lat50, lat99, skel, fc, cores = [], [], [], [], [], [], [], []
         skel_bench, skel_flight = [], []
         for i in range(lockstep_runs):
             sk = asyncio.run(run_skeleton(lockstep_s))
@@ -101,6 +102,7 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
             costs.append(res.timing.get("bench_cost_p50_us", float("nan")))
             cpus.append(res.timing.get("bench_cpu_per_tick_us", float("nan")))
             fc.append(res.timing.get("fc_compute_p50_us", float("nan")))
+            cores.append(res.timing.get("cores_used", float("nan")))
             # host figures: on virtual time the flight code answers at the sample's own sim time
             lat50.append(res.timing.get("host_latency_p50_us", float("nan")))
             lat99.append(res.timing.get("host_latency_p99_us", float("nan")))
@@ -133,6 +135,14 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         rep.add("lockstep RTF ceiling at that flight-code CPU", ceiling, "x",
                 f"the {tick_ms:g} ms tick / the CPU per sample above, whatever the bench's own tick costs; "
                 f"/ skeleton = {ceiling / statistics.median(skel):.3g}")
+        # A campaign's ceiling: flights at a time share this host's CPUs, and sharing never
+        # makes a flight need less CPU (hil/cpuuse.py)
+        n_cpus = len(os.sched_getaffinity(0))
+        per_flight = statistics.median(cores)
+        rep.add("cores per recorded flight (median)", per_flight, "",
+                f"bench + flight code + recorder CPU over the wall time of the runs above; {n_cpus} flights at a "
+                f"time on this host's {n_cpus} CPUs can be at most {n_cpus / per_flight:.3g}x as fast as one "
+                "(hil/cpuuse.py)")
         rep.add("lockstep tick work (median of p50)", statistics.median(costs), "us",
                 "wall time of the tick's own steps (plant, emitting, recording), without the waits")
         rep.add("lockstep flight response p50", statistics.median(lat50), "us", "IMU written -> ESC command read, host time")

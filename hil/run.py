@@ -38,6 +38,7 @@ from hil.record.process import ProcessRecorder
 from hil.rig import Rig, load_rig
 from hil import cpulatency, rtsched
 from hil.cpulatency import CpuLatency, LatencyMode
+from hil.cpuuse import ChildCpu
 from hil.rtsched import RtPolicy, RtScheduling
 from hil.rundir import make_run_dir
 from hil.runlog import STAMP_MAX_AGE_NS, RunLogger
@@ -197,6 +198,24 @@ def _timing_summary(loop: TickLoop, tick_ns: int, telemetry_compute_us: Streamin
     out |= _percentiles("fc_compute", cpu if cpu.size or telemetry_compute_us is None else telemetry_compute_us)
     if st.lateness_ns:
         out |= _percentiles("lateness", st.lateness_ns, 1e-3)
+    return out
+
+
+def _cores_used(loop: TickLoop, fc_cpu_ns: int | None, rec_cpu_ns: int | None, *, recorded: bool) -> dict[str, float]:
+    """The flight code's and the recorder's CPU per tick over the tick loop, and the cores
+    the run kept busy: bench, flight code and recorder CPU over the wall time (hil/cpuuse.py).
+    ``cores_used`` only when every process of the run was measured."""
+    st = loop.stats
+    out: dict[str, float] = {}
+    if not st.ticks:
+        return out
+    if fc_cpu_ns is not None:
+        out["fc_cpu_per_tick_us"] = fc_cpu_ns / st.ticks / 1e3
+    if rec_cpu_ns is not None:
+        out["recorder_cpu_per_tick_us"] = rec_cpu_ns / st.ticks / 1e3
+    wall_ns = st.wall_end_ns - st.wall_start_ns
+    if fc_cpu_ns is not None and (rec_cpu_ns is not None or not recorded) and wall_ns > 0:
+        out["cores_used"] = (st.cpu_ns + fc_cpu_ns + (rec_cpu_ns or 0)) / wall_ns
     return out
 
 
@@ -402,6 +421,9 @@ async def run_flight_async(
     message = ""
     hog = CpuHog(stress_cpu)
     steal = StealMeter()  # the hypervisor's pauses over the tick loop (hil/steal.py)
+    # the other processes' CPU over the tick loop, beside the bench's own (hil/cpuuse.py)
+    fc_cpu = ChildCpu(lambda: flight.pid)
+    rec_cpu = ChildCpu(lambda: recorder.pid if recorder is not None else None)
     frozen = False
     try:
         hog.__enter__()
@@ -428,6 +450,8 @@ async def run_flight_async(
             gc.freeze()
             frozen = True
             steal.start()
+            fc_cpu.start()
+            rec_cpu.start()
             end = await loop.run()
             if end is EndReason.FLIGHT_EXITED:
                 message = f"the flight code exited with status {flight.returncode} at t = {loop.t_ns / 1e9:.3f} s"
@@ -442,6 +466,7 @@ async def run_flight_async(
         raise
     finally:
         steal_ms = steal.stop()  # the tick loop's, before the teardown
+        fc_cpu_ns, rec_cpu_ns = fc_cpu.stop(), rec_cpu.stop()
         rt.__exit__(None, None, None)
         wake.__exit__(None, None, None)
         if frozen:
@@ -477,6 +502,7 @@ async def run_flight_async(
         timing = _timing_summary(loop, rig.tick_ns, telemetry_compute_us, rig.flight.cpu_scale)
         if started_ns is not None and loop.stats.wall_start_ns:
             timing["start_to_tick0_s"] = (loop.stats.wall_start_ns - started_ns) / 1e9
+        timing |= _cores_used(loop, fc_cpu_ns, rec_cpu_ns, recorded=recorder is not None)
         if steal_ms is not None:
             timing["host_steal_ms"] = steal_ms
             if mode is Mode.REALTIME:

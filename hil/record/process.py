@@ -175,6 +175,11 @@ class ProcessRecorder:
         self.dropped = 0  #: batches that could not be handed to the child (it died)
         self._single = ProcessBatch(self)
 
+    @property
+    def pid(self) -> int | None:
+        """The writing child's process id while it runs (its CPU is the recording's cost)."""
+        return self._pid
+
     # -- life cycle ------------------------------------------------------------------------------
     def start(self) -> None:
         cmd_r, cmd_w = os.pipe()

@@ -1,10 +1,15 @@
-"""Steal time in a run (hil/steal.py): every run's timing carries what the hypervisor took
-over its tick loop, its log too, and a realtime run whose samples went without a command
-while the host took time says so in a note."""
+"""What a run reports of its host.
+
+* Steal time (hil/steal.py): every run's timing carries what the hypervisor took over its
+  tick loop, and so does its log. A realtime run whose samples went without a command while
+  the host took time says so in a note.
+* The cores it kept busy (hil/cpuuse.py): the flight code's and the recorder's CPU per
+  tick beside the bench's, and their sum over the wall time."""
 
 from __future__ import annotations
 
 import json
+import os
 
 import pytest
 
@@ -58,3 +63,21 @@ async def test_no_note_when_the_host_took_nothing(fly, monkeypatch: pytest.Monke
     result = await fly("hover", duration_s=0.3, mode=Mode.REALTIME, stress_adc_delay_us=3000.0)
     assert result.timing["host_steal_ms"] == 0.0 and result.timing["rt_no_command"] > 0
     assert not [n for n in result.notes if "steal time" in n]
+
+
+async def test_a_recorded_run_reports_the_cpu_of_each_process_and_the_cores_it_kept_busy(fly) -> None:
+    result = await fly("hover", duration_s=1.0)
+    assert result.end_reason is EndReason.COMPLETED, explain(result)
+    t = result.timing
+    per_tick = t["bench_cpu_per_tick_us"] + t["fc_cpu_per_tick_us"] + t["recorder_cpu_per_tick_us"]
+    assert t["fc_cpu_per_tick_us"] > 0 and t["recorder_cpu_per_tick_us"] > 0
+    # the sum over the tick loop's wall time (ticks / wall s = ticks per s)
+    assert t["cores_used"] == pytest.approx(per_tick * 1e-6 * t["ticks"] / t["wall_s"], rel=1e-6)
+    assert 0 < t["cores_used"] <= len(os.sched_getaffinity(0)) + 0.5  # /proc counts in 10 ms steps
+
+
+async def test_an_unrecorded_run_has_no_recorder_to_count(fly) -> None:
+    result = await fly("hover", duration_s=0.5, record=False)
+    assert result.end_reason is EndReason.COMPLETED, explain(result)
+    assert "recorder_cpu_per_tick_us" not in result.timing
+    assert result.timing["cores_used"] > 0
