@@ -58,7 +58,7 @@ from hil.campaign_case import finite, nested, run_case
 from hil.config import ConfigError, load_toml, resolve_rig, validate
 
 CaseFn = Callable[[dict[str, Any]], dict[str, Any]]
-TIMING_KEYS = ("rtf", "latency_p99_us", "barrier_misses")
+TIMING_KEYS = ("rtf", "latency_p99_us", "barrier_misses", "cores_used")
 _STOP_WAIT_S = 60.0  # after Ctrl-C, wait this long for the running cases to finalize
 
 
@@ -518,6 +518,12 @@ def _median(values: list[Any]) -> float | None:
     return statistics.median(xs) if xs else None
 
 
+def _cpu_s(timing: dict[str, Any]) -> float | None:
+    """CPU-seconds of a flight's tick loop: the cores it kept busy times its wall time."""
+    cores, wall_s = timing.get("cores_used"), timing.get("wall_s")
+    return cores * wall_s if isinstance(cores, (int, float)) and isinstance(wall_s, (int, float)) else None
+
+
 def _badness(c: dict[str, Any]) -> tuple[int, float]:
     """Sort key, larger = worse: failed first, then the value pushed towards its bound."""
     v = c.get("value")
@@ -563,7 +569,11 @@ def summarize(results: list[dict[str, Any]], *, campaign: Campaign, cases: int, 
         "cases": cases, "done": len(results),
         **{k: sum(1 for r in results if outcome(r) == k) for k in ("passed", "failed", "stopped")},
         "cancelled": cancelled, "interrupted": interrupted, "wall_s": wall_s,
-        "flights_per_hour": len(results) / wall_s * 3600 if wall_s > 0 else None, "by_scenario": by_scenario,
+        "flights_per_hour": len(results) / wall_s * 3600 if wall_s > 0 else None,
+        # the CPU one flight's ticks need (bench, flight code, recorder; hil/cpuuse.py): sharing
+        # the cores never makes it less, so C CPUs fly at most C * 3600 / this flights an hour
+        "cpu_s_per_flight": _median([_cpu_s(r.get("timing", {})) for r in results]),
+        "by_scenario": by_scenario,
         "failed_cases": [r["case_id"] for r in results if outcome(r) == "failed"],
     }
 
@@ -592,6 +602,11 @@ def print_summary(console: Console, summary: dict[str, Any]) -> None:
                   f"{summary['cases']} in {summary['wall_s']:.1f} s{tail}"
                   + (f" ({summary['flights_per_hour']:.0f} flights/h)" if summary.get("flights_per_hour") else ""),
                   highlight=False)
+    cpu_s = summary.get("cpu_s_per_flight")
+    if cpu_s:
+        n_cpus = len(os.sched_getaffinity(0))
+        console.print(f"a flight's ticks took {cpu_s:.3g} CPU-seconds (median): this host's {n_cpus} CPUs fly at most "
+                      f"{n_cpus * 3600 / cpu_s:.0f} such flights an hour", highlight=False)
     console.print(f"results: {Path(summary['dir']) / 'results.jsonl'}", highlight=False, soft_wrap=True)
 
 

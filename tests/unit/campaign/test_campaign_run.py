@@ -8,6 +8,7 @@ import io
 import json
 import os
 import signal
+import statistics
 import threading
 from pathlib import Path
 from typing import Any
@@ -61,6 +62,9 @@ def _check_two_seed_run(run: CampaignRun) -> list[dict[str, Any]]:
     assert (scen["cases"], scen["passed"], scen["end_reasons"]) == (2, 2, {"completed": 2})
     assert set(scen["worst"]) == {"stays on the ground", "level"}
     assert scen["timing_median"]["rtf"] > 0
+    cpu_s = [r["timing"]["cores_used"] * r["timing"]["wall_s"] for r in lines]
+    assert summary["cpu_s_per_flight"] == pytest.approx(statistics.median(cpu_s)) and min(cpu_s) > 0
+    assert scen["timing_median"]["cores_used"] == pytest.approx(statistics.median(r["timing"]["cores_used"] for r in lines))
     assert (run.dir / "campaign.toml").read_text() == (DATA / "two-seeds.toml").read_text()
     assert not (run.dir / "STOP").exists()
     assert not (run.dir / "cases").exists() or not any((run.dir / "cases").iterdir())  # passed: nothing left
