@@ -23,7 +23,7 @@ from __future__ import annotations
 import multiprocessing
 import multiprocessing.connection
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from hil import clock
@@ -59,10 +59,19 @@ class CpuNoise:
         return len(self.gaps_ns) * 10.0 / self.measured_s if self.measured_s > 0 else float("nan")
 
 
-def find_gaps(times_ns: Sequence[int], threshold_ns: int) -> list[int]:
-    """The steps between consecutive clock reads ``times_ns`` (ns, non-decreasing) that are
-    longer than ``threshold_ns``, in order."""
-    return [b - a for a, b in zip(times_ns, times_ns[1:]) if b - a > threshold_ns]
+def spin_window(read: Callable[[], int], span_ns: int, threshold_ns: int) -> tuple[list[int], int]:
+    """Read the clock ``read`` (ns) until ``span_ns`` have passed since its first reading;
+    returns the steps between consecutive readings longer than ``threshold_ns``, in order,
+    and the ns from the first reading to the last."""
+    start = prev = read()
+    stop = start + span_ns
+    gaps: list[int] = []
+    while prev < stop:
+        now = read()
+        if now - prev > threshold_ns:
+            gaps.append(now - prev)
+        prev = now
+    return gaps, prev - start
 
 
 def _spin(cpu: int, seconds: float, threshold_ns: int, priority: int, out: multiprocessing.connection.Connection) -> None:
@@ -75,23 +84,17 @@ def _spin(cpu: int, seconds: float, threshold_ns: int, priority: int, out: multi
             policy = f"SCHED_FIFO priority {priority}"
         except OSError:
             pass  # measured at the default policy, and said so
-    mono = clock.monotonic_ns
     gaps: list[int] = []
     measured = 0
     left = int(seconds * 1e9)
     while left > 0:
         span = min(left, int(_WINDOW_S * 1e9))
-        start = prev = mono()
-        stop = start + span
-        while prev < stop:
-            now = mono()
-            if now - prev > threshold_ns:
-                gaps.append(now - prev)
-            prev = now
-        measured += prev - start
+        window_gaps, spanned = spin_window(clock.monotonic_ns, span, threshold_ns)
+        gaps += window_gaps
+        measured += spanned
         left -= span
         if left > 0:
-            clock.sleep_until_ns(mono() + int(_REST_S * 1e9), spin_ns=0)
+            clock.sleep_until_ns(clock.monotonic_ns() + int(_REST_S * 1e9), spin_ns=0)
     out.send((measured / 1e9, gaps, policy))
     out.close()
 

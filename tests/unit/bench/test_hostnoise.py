@@ -10,24 +10,33 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from hil.hostnoise import CpuNoise, find_gaps, measure
+from hil.hostnoise import CpuNoise, measure, spin_window
+
+
+def _clock(times: list[int]):
+    """A clock that reads ``times`` in turn."""
+    return iter(times).__next__
 
 
 def test_only_steps_longer_than_the_threshold_are_gaps() -> None:
     times = [0, 100, 250, 1_250, 1_300, 1_300, 5_300]
-    assert find_gaps(times, 200) == [1_000, 4_000]
-    assert find_gaps(times, 4_000) == []
-    assert find_gaps([7], 0) == [] and find_gaps([], 0) == []
+    assert spin_window(_clock(times), 5_300, 200) == ([1_000, 4_000], 5_300)
+    assert spin_window(_clock(times), 5_300, 4_000) == ([], 5_300)
 
 
-@given(st.lists(st.integers(min_value=0, max_value=10_000), max_size=50), st.integers(min_value=0, max_value=5_000))
+def test_the_window_ends_at_the_first_reading_past_its_span() -> None:
+    # the span ends at 1 000 ns: the reading at 1 250 ends it, the rest is never read
+    assert spin_window(_clock([0, 100, 250, 1_250, 99_999]), 1_000, 200) == ([1_000], 1_250)
+
+
+@given(st.lists(st.integers(min_value=1, max_value=10_000), min_size=1, max_size=50), st.integers(min_value=0, max_value=5_000))
 def test_the_gaps_are_the_long_steps_and_never_exceed_the_span(steps: list[int], threshold: int) -> None:
     times = [0]
     for s in steps:
         times.append(times[-1] + s)
-    gaps = find_gaps(times, threshold)
+    gaps, spanned = spin_window(_clock(times), times[-1], threshold)
     assert gaps == [s for s in steps if s > threshold]
-    assert sum(gaps) <= times[-1]
+    assert spanned == times[-1] and sum(gaps) <= spanned
 
 
 def test_figures_of_one_cpu() -> None:
