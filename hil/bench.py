@@ -85,6 +85,10 @@ class TickStats:
     barrier_misses: int = 0  #: lockstep: no ESC command for an emitted sample (before the next tick)
     late_ticks: int = 0  #: realtime: tick started more than 1 ms late
     no_command: int = 0  #: realtime: samples that got no ESC command before the next sample
+    #: realtime and wall-clock lockstep: ESC commands that came while the newest sample was
+    #: still unread by the flight code, so answered an older one (already counted in
+    #: ``no_command`` or ``barrier_misses``): credited to none
+    late_commands: int = 0
     # streamed (hil.timing.StreamingStats: percentiles in bounded memory, not every sample)
     latencies_ns: StreamingStats = field(default_factory=StreamingStats)  #: IMU emit -> ESC command (wall; sim in VIRTUAL)
     lateness_ns: StreamingStats = field(default_factory=StreamingStats)  #: realtime pacer lateness
@@ -115,6 +119,7 @@ class TickDevices(Protocol):
     def actuate_and_step(self, t_ns: int) -> None: ...
     def latch_analog(self, t_ns: int) -> None: ...
     def emit_imu(self, t_ns: int) -> tuple[bool, bool]: ...
+    def newest_sample_unread(self) -> bool: ...
     def note_latency(self, sample: LatencySample) -> None: ...
     def finish_tick(self, t_ns: int) -> None: ...
 
@@ -185,9 +190,16 @@ class TickLoop:
             if self._arrival is None:
                 self._arrival = (t_host_ns, t_ns)
         elif fut is not None and not fut.done():
+            if self.devices.newest_sample_unread():  # a late answer to an earlier sample (its miss counted)
+                self.stats.late_commands += 1
+                return
             fut.set_result(t_host_ns)
         elif self._rt_emit is not None:
-            # realtime: the first command after a sample answers that sample
+            # realtime: the first command after a sample answers that sample, unless the
+            # flight code has not read that sample yet
+            if self.devices.newest_sample_unread():
+                self.stats.late_commands += 1
+                return
             t_sample, t_emit, late = self._rt_emit
             self._rt_emit = None
             self.stats.latencies_ns.append(t_host_ns - t_emit)

@@ -143,6 +143,8 @@ class DeviceSet:
         self.latency: list[LatencySample] = []
         self.latency_stats = LatencyStats(rig.tick_ns)
         self._rc_want: int | None = None
+        #: the IMU port's accepted byte count where the newest sample began (-1: none yet)
+        self._imu_mark = -1
         #: timing stress: hold every ADC bridge reply back this long (wall ns; hil/stress.py)
         self.adc_reply_delay_ns = 0
         #: IMU sensor faults: ``(t_ns, q_NS, omega_S_radps, f_S_mps2) -> the same, transformed``,
@@ -311,6 +313,17 @@ class DeviceSet:
         if events:
             self._dispatch("rc", events)
 
+    def newest_sample_unread(self) -> bool:
+        """The flight code has not begun reading the newest IMU sample (False where the bench
+        cannot see its end of the port). A command arriving now answers an older sample: the
+        flight code reads a sample before it answers it. Judged from where the sample's bytes
+        began, so bytes after it (a fault's extra bytes, a duplicate) do not count."""
+        port = self.ports.get("imu")
+        if port is None or self._imu_mark < 0:
+            return False
+        consumed = port.client_consumed()
+        return consumed is not None and consumed <= self._imu_mark
+
     async def confirm_rc(self) -> None:
         """Wait until the RC bytes written this tick are readable by the flight code."""
         port = self.ports.get("rc")
@@ -350,6 +363,9 @@ class DeviceSet:
         events = self.imu.take_events()
         emitted = any(type(e).__name__ == "SampleSent" for e in events)
         if out:
+            port = self.ports.get("imu")
+            if emitted and port is not None:
+                self._imu_mark = port.accepted_bytes()  # where the newest sample's bytes begin
             written = self.write("imu", out)
             emitted = emitted and written > 0
         if events:

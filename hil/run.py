@@ -184,6 +184,8 @@ def _timing_summary(loop: TickLoop, tick_ns: int, telemetry_compute_us: Streamin
         out |= {"bench_cost_p50_us": cost.percentile(50) / 1e3, "bench_cost_p99_us": cost.percentile(99) / 1e3}
     if st.clock is Clock.REALTIME:
         out["rt_no_command"] = float(st.no_command)
+    if st.clock is not Clock.VIRTUAL:
+        out["late_commands"] = float(st.late_commands)
     if st.ticks:
         out["bench_cpu_per_tick_us"] = st.cpu_ns / st.ticks / 1e3
     arrivals = lat.sim_period if virtual else lat.host_period

@@ -61,7 +61,7 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
         "fc_compute_p50_us", "fc_compute_p99_us", "fc_compute_max_us", "period_p50_us", "period_jitter_p99_us",
         "host_latency_p50_us", "host_latency_p99_us", "bench_cost_p50_us", "bench_cost_p99_us",
         "bench_cpu_per_tick_us", "fc_cpu_per_tick_us", "recorder_cpu_per_tick_us", "cores_used",
-        "lateness_p50_us", "lateness_p99_us", "lateness_max_us", "late_ticks", "rt_no_command", "host_steal_ms", "boot_sim_s",
+        "lateness_p50_us", "lateness_p99_us", "lateness_max_us", "late_ticks", "rt_no_command", "late_commands", "host_steal_ms", "boot_sim_s",
         "start_to_tick0_s",
     ):
         if key in t:

@@ -136,6 +136,15 @@ class Port:
     def flush(self) -> None:
         """Make everything written so far readable by the client now (no-op if immediate)."""
 
+    def accepted_bytes(self) -> int:
+        """Bytes this port has taken from ``write`` so far (handed over or still queued)."""
+        return self.stats.bytes_tx
+
+    def client_consumed(self) -> int | None:
+        """Bytes the client has read so far, counted as :meth:`accepted_bytes`; None where
+        the bench cannot see the client's end (a real serial line)."""
+        return None
+
     async def start(self) -> None:
         """Register with the running event loop."""
 
@@ -186,6 +195,9 @@ class BufferedWrites(Port):
     def writes_pending(self) -> bool:
         """Bytes wait in ``_pending`` for the kernel to take them (the loop's writer drains them)."""
         return bool(self._pending)
+
+    def accepted_bytes(self) -> int:
+        return self.stats.bytes_tx + len(self._pending)
 
     def drain_queued(self) -> None:
         """Hand the kernel what it takes of ``_pending`` now (the writer callback's work, for

@@ -105,6 +105,12 @@ class MemoryPort(Port):
     def client_inq(self) -> int:
         return self.client.in_waiting()
 
+    def accepted_bytes(self) -> int:
+        return self.stats.bytes_tx + len(self._pending)
+
+    def client_consumed(self) -> int | None:
+        return self.stats.bytes_tx - self.client.in_waiting()
+
     async def write_confirmed(self, data: bytes, timeout_s: float = 0.05) -> bool:
         self.write(data)
         return not self._pending

@@ -206,6 +206,14 @@ class PtyPort(BufferedWrites):
             self._loop.remove_writer(self._master)
             self._writer_registered = False
 
+    def client_consumed(self) -> int | None:
+        """Bytes the client has read: those handed to the pty, less those still readable at
+        its end once the pty's delivery work has run (a flush)."""
+        if self._closed:
+            return None
+        self.flush()
+        return self.stats.bytes_tx - self.client_inq()
+
     def client_inq(self) -> int:
         """Bytes readable by the client right now (TIOCINQ on the bench's slave fd)."""
         buf = array.array("i", [0])

@@ -133,6 +133,30 @@ async def check_write_confirmed(make: HarnessFactory) -> None:
         assert await client.read(7, 1.0) == b"frame-1"
 
 
+async def check_client_consumed(make: HarnessFactory) -> None:
+    """What the client has read, against what the port took (how the bench tells whether the
+    flight code has begun reading the newest IMU sample)."""
+    async with make() as (port, client):
+        await client.open(115200)
+        start = port.accepted_bytes()
+        port.write(b"0123456789")
+        assert port.accepted_bytes() == start + 10
+        assert port.client_consumed() == start
+        assert await client.read(4, 1.0) == b"0123"
+        assert port.client_consumed() == start + 4
+        assert await client.read(6, 1.0) == b"456789"
+        assert port.client_consumed() == start + 10
+
+
+async def check_client_end_unseen(make: HarnessFactory) -> None:
+    """A real serial line: the bench cannot see what the far end has read, and says so."""
+    async with make() as (port, client):
+        await client.open(115200)
+        port.write(b"0123")
+        assert port.client_consumed() is None
+        assert await client.read(4, 1.0) == b"0123"
+
+
 ALL_CHECKS = [
     check_bench_to_client,
     check_client_to_bench,
@@ -141,6 +165,7 @@ ALL_CHECKS = [
     check_tap_sees_both_directions,
     check_reopen,
     check_write_confirmed,
+    check_client_consumed,
 ]
 
 
@@ -154,6 +179,7 @@ SERIAL_CHECKS = [
     check_overflow_counted,
     check_tap_sees_both_directions,
     check_write_confirmed,
+    check_client_end_unseen,
 ]
 #: socket:// - the kernel's TCP buffers hold megabytes, so a non-reading peer shows no overflow soon
 SOCKET_CHECKS = [c for c in SERIAL_CHECKS if c is not check_overflow_counted]

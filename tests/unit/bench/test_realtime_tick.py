@@ -19,12 +19,18 @@ class _Devices:
     """The DeviceSet calls the tick loop makes, with a fake flight code answering each sample
     ``answer_s`` after it is emitted (None: never)."""
 
-    def __init__(self, answer_s: float | None) -> None:
+    def __init__(self, answer_s: float | None, *, sees_unread: bool = True) -> None:
         self.answer_s = answer_s
         self.on_esc_command: Any = None
         self.answered: set[int] = set()
         self.latencies: list[Any] = []
-        self.k = -1
+        self.k = -1  #: the newest sample emitted
+        self.answering = -1  #: the sample the fake flight code is answering now
+        self.sees_unread = sees_unread  #: False: a port whose client's end the bench cannot see
+
+    def newest_sample_unread(self) -> bool:
+        """The fake flight code reads a sample only when it answers it: any newer one is unread."""
+        return self.sees_unread and self.k > self.answering
 
     def emit_rc_early(self, t_ns: int) -> None: ...
     async def confirm_rc(self) -> None: ...
@@ -36,7 +42,7 @@ class _Devices:
         self.latencies.append(sample)
 
     def emit_imu(self, t_ns: int) -> tuple[bool, bool]:
-        k = t_ns // TICK_NS
+        k = self.k = t_ns // TICK_NS
         if self.answer_s is not None:
             loop = asyncio.get_running_loop()
             loop.call_later(self.answer_s, self._answer, k, t_ns)
@@ -44,6 +50,7 @@ class _Devices:
 
     def _answer(self, k: int, t_ns: int) -> None:
         self.answered.add(k)
+        self.answering = k
         self.on_esc_command(time.monotonic_ns(), t_ns)
 
 
@@ -78,6 +85,24 @@ def test_no_command_does_not_hold_the_tick_and_is_counted() -> None:
     assert loop.stats.no_command == 19  # each sample but the last was followed by the next
     assert all(s.t_arrival_host_ns is None for s in devices.latencies)
     assert 0 < RT_ANSWER_SHARE < 1
+
+
+def test_a_command_after_the_next_sample_is_credited_to_none() -> None:
+    # each answer comes 1.5 ticks after its sample: after the next one, which is unread then
+    devices = _Devices(answer_s=1.5 * TICK_NS / 1e9)
+    loop = _loop(devices, 20, [])
+    asyncio.run(loop.run())
+    assert loop.stats.no_command == 19
+    assert len(loop.stats.latencies_ns) == 0  # no sample got a command it could not have had
+    assert loop.stats.late_commands == len(devices.answered) > 10  # the answers that came in the run
+
+
+def test_where_the_client_end_is_unseen_the_first_command_after_a_sample_answers_it() -> None:
+    # an attached serial line: the bench cannot tell, and credits as it always did
+    devices = _Devices(answer_s=1.5 * TICK_NS / 1e9, sees_unread=False)
+    loop = _loop(devices, 20, [])
+    asyncio.run(loop.run())
+    assert loop.stats.late_commands == 0 and len(loop.stats.latencies_ns) > 10
 
 
 def test_slack_work_gets_each_next_deadline_after_the_bookkeeping() -> None:
