@@ -185,21 +185,23 @@ class TickLoop:
     # -- commands ---------------------------------------------------------------------------------
     def _esc_command(self, t_host_ns: int, t_ns: int) -> None:
         self.stats.esc_commands += 1
-        fut = self._barrier
         if self._awaiting is not None:
             if self._arrival is None:
                 self._arrival = (t_host_ns, t_ns)
-        elif fut is not None and not fut.done():
-            if self.devices.newest_sample_unread():  # a late answer to an earlier sample (its miss counted)
-                self.stats.late_commands += 1
-                return
+            return
+        fut = self._barrier
+        barrier = fut is not None and not fut.done()
+        if not barrier and self._rt_emit is None:
+            return
+        # The first command after a sample answers that sample (wall-clock lockstep's barrier,
+        # realtime), unless the flight code has not begun reading it: then it answers an
+        # older one, whose miss is already counted.
+        if self.devices.newest_sample_unread():
+            self.stats.late_commands += 1
+        elif barrier:
+            assert fut is not None
             fut.set_result(t_host_ns)
         elif self._rt_emit is not None:
-            # realtime: the first command after a sample answers that sample, unless the
-            # flight code has not read that sample yet
-            if self.devices.newest_sample_unread():
-                self.stats.late_commands += 1
-                return
             t_sample, t_emit, late = self._rt_emit
             self._rt_emit = None
             self.stats.latencies_ns.append(t_host_ns - t_emit)

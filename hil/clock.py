@@ -12,6 +12,8 @@ import queue
 import threading
 import time
 
+from hil.procstat import STARTTIME, stat_fields
+
 
 #: Host CLOCK_MONOTONIC in ns (for emit stamps, timeouts and compute measurement). The
 #: builtin itself, not a wrapper: the tick path reads it about 17 times a tick.
@@ -26,9 +28,9 @@ def wall_ns() -> int:
 def process_start_monotonic_ns() -> int:
     """When this process started, on the ``monotonic_ns`` time line (10 ms resolution: the
     kernel counts a process's start in clock ticks since boot). For start-up figures."""
-    with open("/proc/self/stat", "rb") as f:
-        fields = f.read().rsplit(b")", 1)[1].split()
-    start_since_boot_ns = int(fields[19]) * 1_000_000_000 // os.sysconf("SC_CLK_TCK")
+    fields = stat_fields("self")
+    assert fields is not None  # this process exists
+    start_since_boot_ns = int(fields[STARTTIME]) * 1_000_000_000 // os.sysconf("SC_CLK_TCK")
     age_ns = time.clock_gettime_ns(time.CLOCK_BOOTTIME) - start_since_boot_ns
     return time.monotonic_ns() - age_ns
 

@@ -17,22 +17,19 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
+from hil.procstat import STIME, UTIME, stat_fields
+
 _NS_PER_TICK = 1_000_000_000 // os.sysconf("SC_CLK_TCK")
 
 
 def process_cpu_ns(pid: int | None, proc: Path = Path("/proc")) -> int | None:
     """User + system CPU time of process ``pid`` so far (all its threads), ns; None if there
     is no such process (or no pid)."""
-    if pid is None:
+    fields = None if pid is None else stat_fields(pid, proc)
+    if fields is None:
         return None
     try:
-        raw = (proc / str(pid) / "stat").read_bytes()
-    except OSError:
-        return None
-    # the command name (field 2) is in parentheses and may itself hold spaces and parentheses
-    fields = raw[raw.rindex(b")") + 2 :].split()
-    try:
-        return (int(fields[11]) + int(fields[12])) * _NS_PER_TICK  # utime, stime (proc(5) fields 14, 15)
+        return (int(fields[UTIME]) + int(fields[STIME])) * _NS_PER_TICK
     except (IndexError, ValueError):
         return None
 

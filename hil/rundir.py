@@ -19,6 +19,8 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from hil.procstat import STARTTIME, stat_fields
+
 OWNER_FILE = "owner.json"
 PREFIX = "hil-"
 
@@ -33,13 +35,8 @@ class Owner:
 
 def _start_ticks(pid: int) -> int | None:
     """Field 22 of /proc/<pid>/stat (starttime), None if the process does not exist."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return None
-    # The command name (field 2) may hold spaces and parentheses: split after the last ')'.
-    fields = stat[stat.rindex(")") + 2 :].split()
-    return int(fields[19])
+    fields = stat_fields(pid)
+    return None if fields is None else int(fields[STARTTIME])
 
 
 def current_owner() -> Owner:

@@ -8,30 +8,20 @@ from pathlib import Path
 
 import pytest
 
-from hil.bench import EndReason, Mode, TickLoop
+from hil.bench import EndReason, Mode
 from hil.record import iter_messages
 from hil.run import run_flight
+from tests.system.conftest import at_tick
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
 
 
-def _break_at_tick(k_bad: int):
-    def on_ready(loop: TickLoop, devices: object, runner: object) -> None:
-        logged = loop.after_tick
-
-        def after_tick(k: int, t_ns: int) -> None:
-            if logged is not None:
-                logged(k, t_ns)
-            if k == k_bad:
-                raise ZeroDivisionError("a bench bug")
-
-        loop.after_tick = after_tick
-
-    return on_ready
+def _bench_bug(runner: object) -> None:
+    raise ZeroDivisionError("a bench bug")
 
 
 def test_a_bench_error_ends_the_run_and_its_traceback_is_logged(tmp_path: Path) -> None:
-    res = run_flight(None, "hover", mode=Mode.LOCKSTEP, duration_s=1.0, out_dir=tmp_path, on_ready=_break_at_tick(40))
+    res = run_flight(None, "hover", mode=Mode.LOCKSTEP, duration_s=1.0, out_dir=tmp_path, on_ready=at_tick(40, _bench_bug))
     assert res.end_reason is EndReason.ERROR
     assert res.message == "bench error: ZeroDivisionError: a bench bug"
     assert res.log_path is not None and res.log_path.suffix == ".mcap"  # finalized, not a .part
