@@ -30,8 +30,8 @@ COMPILED_PACKAGES = ("emulators", "hil/plant")
 #: the pty port under them (eighth round; the serial port, used only on attached hardware,
 #: stays interpreted)
 TICK_PATH = (
-    "hil/bench.py", "hil/devices.py", "hil/runlog.py", "hil/timing.py", "hil/online_stats.py",
-    "hil/trace_stream.py", "hil/criteria_stream.py", "hil/signal_stream.py", "hil/telemetry.py",
+    "hil/flight/tickloop.py", "hil/flight/devices.py", "hil/flight/runlog.py", "hil/analysis/timing.py", "hil/analysis/online_stats.py",
+    "hil/analysis/trace_stream.py", "hil/analysis/criteria_stream.py", "hil/analysis/signal_stream.py", "hil/flight/telemetry.py",
     "hil/frozen.py", "hil/record/process.py", "hil/vtime/control.py", "hil/vtime/scheduler.py",
     "hil/transport/base.py", "hil/transport/pty.py",
 )

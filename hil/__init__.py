@@ -1,6 +1,15 @@
 """The bench: transports, clocks, the plant, the run loop and recording.
 
-``hil`` may import ``emulators`` and everything else of ours except ``flightcode``.
+``hil`` may import ``emulators`` and everything else of ours except ``flightcode``. Its
+packages follow its jobs (docs/architecture.md): ``config`` (rig and scenario files),
+``flight`` (one flight), ``analysis`` (what a run or a log says), ``fleet`` (many flights,
+replay), ``host`` (the machine under the bench), and beside them ``plant``, ``faults``,
+``record``, ``transport`` and ``vtime``.
 """
 
+from hil import _moved
+
 __version__ = "0.1.0"
+
+# old import paths (before the packages above) keep working, with a DeprecationWarning
+_moved.install()

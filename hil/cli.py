@@ -33,11 +33,11 @@ app = typer.Typer(
 )
 console = Console()
 err_console = Console(stderr=True)
-_MODES = ("lockstep", "realtime")  #: hil.bench.Mode values (not imported here: start-up time)
+_MODES = ("lockstep", "realtime")  #: hil.flight.tickloop.Mode values (not imported here: start-up time)
 
 
 def parse_attach_flags(flags: list[str]) -> dict[str, str]:
-    from hil.attach import parse_attach_flags as parse
+    from hil.config.attach import parse_attach_flags as parse
 
     return parse(flags)
 
@@ -77,10 +77,10 @@ def run(
     if mode not in _MODES:
         _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
     from hil.config import ConfigError
-    from hil.progress import PlainProgress
-    from hil.rig import load_rig
-    from hil.scenario import load_scenario
-    from hil.scenario_runner import ScenarioRunner
+    from hil.flight.progress import PlainProgress
+    from hil.config.rig import load_rig
+    from hil.config.scenario import load_scenario
+    from hil.flight.scenario_runner import ScenarioRunner
 
     try:
         rig_obj = load_rig(rig)
@@ -91,10 +91,10 @@ def run(
         _fail(str(exc))
     import asyncio
 
-    from hil.attach import refuse_lockstep, resolve_attachments
-    from hil.bench import Mode
-    from hil.run import PORTS, run_flight_async
-    from hil.summary import print_summary
+    from hil.config.attach import refuse_lockstep, resolve_attachments
+    from hil.flight.tickloop import Mode
+    from hil.flight.run import PORTS, run_flight_async
+    from hil.analysis.summary import print_summary
 
     run_mode = Mode(mode)
     try:
@@ -202,9 +202,9 @@ def devices(
     import asyncio
 
     from hil.config import ConfigError
-    from hil.devices_cmd import serve_devices
-    from hil.rig import load_rig
-    from hil.scenario import load_scenario
+    from hil.flight.devices_live import serve_devices
+    from hil.config.rig import load_rig
+    from hil.config.scenario import load_scenario
 
     try:
         rig_obj = load_rig(rig)
@@ -245,7 +245,7 @@ def report(
 
     Exit status: 0 the plots were written (their paths are printed); 2 no such file.
     """
-    from hil.report import make_report
+    from hil.analysis.report import make_report
 
     if not log.exists():
         _fail(f"{log}: no such file")
@@ -265,7 +265,7 @@ def timing(
     held); 1 a sample over the budget or without an ESC command, or realtime not held; 2 no
     such file.
     """
-    from hil.timing import analyze_log, plot_latency
+    from hil.analysis.timing import analyze_log, plot_latency
 
     if not log.exists():
         _fail(f"{log}: no such file")
@@ -305,7 +305,7 @@ def perf(
 
     Exit status: 0 the table was printed (the figures are information, not a verdict).
     """
-    from hil.perf import measure
+    from hil.host.perf import measure
 
     rep = measure(lockstep_runs=runs, lockstep_s=seconds, realtime_s=seconds)
     table = Table(title="hil perf (medians; shared machines are noisy: compare ratios)")
@@ -334,8 +334,8 @@ def replay(
     import asyncio
 
     from hil.record import TornRecordingError
-    from hil.replay import ReplayError, verify
-    from hil.replay import replay as do_replay
+    from hil.fleet.replay import ReplayError, verify
+    from hil.fleet.replay import replay as do_replay
 
     if not log.exists():
         _fail(f"{log}: no such file")
@@ -365,7 +365,7 @@ def campaign(
     Exit status: 0 every run passed; 1 a run failed; 2 bad campaign file or option;
     130 interrupted (Ctrl-C; the summary covers the runs that finished).
     """
-    from hil.campaign import KeepLogs, load_campaign, run_campaign
+    from hil.fleet.campaign import KeepLogs, load_campaign, run_campaign
     from hil.config import ConfigError
 
     try:
@@ -403,7 +403,7 @@ def fidelity(
 
     Exit status: 0 every row of the table passes; 1 a row fails; 2 bad input.
     """
-    from hil.fidelity import main as fidelity_main
+    from hil.fleet.fidelity import main as fidelity_main
 
     ok = fidelity_main(list(range(1, seeds + 1)), docs, progress=lambda msg: console.print(msg))
     console.print(f"wrote {docs / 'fidelity.md'}: {'every row passes' if ok else 'some rows FAIL'}")

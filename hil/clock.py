@@ -12,7 +12,7 @@ import queue
 import threading
 import time
 
-from hil.procstat import STARTTIME, stat_fields
+from hil.host.procstat import STARTTIME, stat_fields
 
 
 #: Host CLOCK_MONOTONIC in ns (for emit stamps, timeouts and compute measurement). The

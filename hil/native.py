@@ -14,7 +14,7 @@ import importlib.util
 from pathlib import Path
 
 #: one module per compiled part: each part is compiled whole or not at all
-PROBES = {"emulators": "emulators.base", "hil.plant": "hil.plant.plant", "hil tick path": "hil.devices"}
+PROBES = {"emulators": "emulators.base", "hil.plant": "hil.plant.plant", "hil tick path": "hil.flight.devices"}
 
 
 def compiled() -> dict[str, bool]:

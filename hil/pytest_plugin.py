@@ -7,7 +7,7 @@
         async with bench.fault("imu.silence"):
             await bench.until(lambda b: max(b.esc_command.pulse_us) <= 1000, timeout_s=0.05)
 
-Each ``start`` is one :func:`hil.run.run_flight_async` (own run dir, ptys, flight-code
+Each ``start`` is one :func:`hil.flight.run.run_flight_async` (own run dir, ptys, flight-code
 process, MCAP) running as a task in the test's event loop. In lockstep the flight code runs
 on the bench's clock (virtual time, docs/time.md) and the bench ticks only while the test
 awaits one of its waits (``until``, ``always``, ``run_for``, a fault's start or end,
@@ -40,15 +40,15 @@ import pytest
 
 if TYPE_CHECKING:
     from emulators.base import DeviceEvent
-    from hil.bench import TickLoop
-    from hil.devices import DeviceSet
+    from hil.flight.tickloop import TickLoop
+    from hil.flight.devices import DeviceSet
     from hil.faults import FaultHandle, FaultSchedule, ScheduledFault
-    from hil.rig import Rig
-    from hil.run import RunResult
-    from hil.scenario import Scenario
-    from hil.scenario_runner import ScenarioRunner
-    from hil.timing import TimingReport
-    from hil.trace import Trace
+    from hil.config.rig import Rig
+    from hil.flight.run import RunResult
+    from hil.config.scenario import Scenario
+    from hil.flight.scenario_runner import ScenarioRunner
+    from hil.analysis.timing import TimingReport
+    from hil.analysis.trace import Trace
     from hil.transport.base import WireRecord
 
 S = 1_000_000_000
@@ -153,7 +153,7 @@ class Bench:
 
     def __init__(self, rig: Rig, scenario: Scenario, *, source: Path | None, seed: int | None,
                  duration_s: float | None, mode: str, log_path: Path, faults: Sequence[ScheduledFault]) -> None:
-        from hil.telemetry import TelemetryDecoder
+        from hil.flight.telemetry import TelemetryDecoder
 
         self.rig, self.scenario, self.source = rig, scenario, source
         self.seed = scenario.scenario.seed if seed is None else seed
@@ -195,8 +195,8 @@ class Bench:
 
     # -- start ------------------------------------------------------------------------------------
     async def _start(self) -> None:
-        from hil.bench import Mode
-        from hil.run import run_flight_async
+        from hil.flight.tickloop import Mode
+        from hil.flight.run import run_flight_async
 
         loop = asyncio.get_running_loop()
         self._test_task = asyncio.current_task()
@@ -277,7 +277,7 @@ class Bench:
         """On virtual time the bench ticks only while the test awaits it: the test's code between
         two waits takes no sim time, however long it runs, so what it sees is deterministic. On
         the host clock (realtime, the fallback) the flight code would not wait: no gate."""
-        from hil.bench import Clock
+        from hil.flight.tickloop import Clock
 
         if self.loop is None or self.loop.stats.clock is not Clock.VIRTUAL:
             return
@@ -368,7 +368,7 @@ class Bench:
         late_s = (now - self._stall_due_ns) / S
         ticking = self.loop is not None and self.loop.stats.wall_end_ns == 0  # not the end-of-run work
         # on virtual time the flight code's clock stops with the bench: a stall changes nothing
-        from hil.bench import Clock
+        from hil.flight.tickloop import Clock
 
         host_clock = self.loop is not None and self.loop.stats.clock is not Clock.VIRTUAL
         if late_s > STALL_WARN_S and ticking and host_clock:
@@ -502,7 +502,7 @@ class Bench:
 
     @property
     def telemetry(self) -> dict[str, Any] | None:
-        """The last telemetry frame the flight code sent, decoded (hil.telemetry keys, plus
+        """The last telemetry frame the flight code sent, decoded (hil.flight.telemetry keys, plus
         ``rx_t_s``: sim time it reached the bench), or None before the first."""
         return self._telemetry
 
@@ -528,7 +528,7 @@ class Bench:
 
     @property
     def flight(self) -> Any:
-        """The flight code's hil.flightproc.FlightProcess (pid, last_stderr, returncode)."""
+        """The flight code's hil.flight.process.FlightProcess (pid, last_stderr, returncode)."""
         return None if self.runner is None else self.runner.flight
 
     def log_event(self, name: str, detail: Mapping[str, Any] | None = None) -> None:
@@ -576,7 +576,7 @@ class Bench:
 
     @property
     def result(self) -> RunResult:
-        """The run's hil.run.RunResult (after :meth:`stop` / :meth:`finish`)."""
+        """The run's hil.flight.run.RunResult (after :meth:`stop` / :meth:`finish`)."""
         task = self._require_task()
         if not task.done():
             raise RuntimeError("the run is still going: await bench.stop() or bench.finish() first")
@@ -592,8 +592,8 @@ class Bench:
         return read_topic(self._log(), topic)
 
     def timing(self, budget_us: float = 2500.0) -> TimingReport:
-        """The loop timing report of the run (hil.timing.analyze_log), after the run."""
-        from hil.timing import analyze_log
+        """The loop timing report of the run (hil.analysis.timing.analyze_log), after the run."""
+        from hil.analysis.timing import analyze_log
 
         return analyze_log(self._log(), budget_us)
 
@@ -642,8 +642,8 @@ def build_scenario(rig: Rig, scenario: str | Path | Mapping[str, Any] | Scenario
     scenario TOML (``[scenario]`` header optional), a Scenario, or None (empty). ``sticks``
     replace the scenario's [[sticks]]; ``flight`` is deep-merged into its [flight] overrides."""
     from hil.config import ConfigError, validate
-    from hil.run import deep_merge
-    from hil.scenario import Scenario, load_scenario
+    from hil.flight.run import deep_merge
+    from hil.config.scenario import Scenario, load_scenario
 
     source: Path | None = None
     if isinstance(scenario, Scenario):
@@ -695,7 +695,7 @@ class HilBench:
         the run's sim length (None = the scenario's); ``mode``: "lockstep" or "realtime".
         """
         from hil.faults import load_faults
-        from hil.rig import Rig, load_rig
+        from hil.config.rig import Rig, load_rig
 
         rig_obj = rig if isinstance(rig, Rig) else load_rig(rig)
         scen, source = build_scenario(rig_obj, scenario, sticks=sticks, flight=flight, duration_s=duration_s,

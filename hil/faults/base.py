@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from hil.faults.env import FaultEnv
-    from hil.rig import Rig
+    from hil.config.rig import Rig
 
 NS_PER_S = 1_000_000_000
 

@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING, Any, Protocol
 from emulators.analog.frontend import AccelFault, BaroFault
 
 if TYPE_CHECKING:
-    from hil.devices import DeviceSet, WireFilter
-    from hil.flightproc import FlightProcess
+    from hil.flight.devices import DeviceSet, WireFilter
+    from hil.flight.process import FlightProcess
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]

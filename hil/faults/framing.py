@@ -28,7 +28,7 @@ import numpy as np
 
 from emulators.xbee.frames import escape as xbee_escape
 
-#: The ports of a run (the same list as hil/run.py PORTS).
+#: The ports of a run (the same list as hil/flight/run.py PORTS).
 RIG_PORTS: tuple[str, ...] = ("imu", "adc", "rc", "esc", "telemetry", "ground")
 
 XBUS_PREAMBLE = 0xFA

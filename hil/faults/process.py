@@ -1,6 +1,6 @@
 """Process faults: the flight code is killed, or killed and started again mid-flight.
 
-Both need the run's :class:`~hil.flightproc.FlightProcess`; a schedule without one refuses
+Both need the run's :class:`~hil.flight.process.FlightProcess`; a schedule without one refuses
 them when it is built. The kill is a signal (immediate); the restart runs as a task of the
 schedule (``FlightProcess.restart``) so the tick never waits for the process: the old
 process is reaped in the background, and the new one is started when the fault ends

@@ -32,8 +32,8 @@ from hil.faults.env import FaultEnv
 from hil.faults.loader import check_fault
 
 if TYPE_CHECKING:
-    from hil.devices import DeviceSet
-    from hil.flightproc import FlightProcess
+    from hil.flight.devices import DeviceSet
+    from hil.flight.process import FlightProcess
 
 EventLogger = Callable[[int, str, str, dict[str, Any]], None]
 

@@ -1,6 +1,6 @@
 """Wire faults: what happens to the bytes of one port, in either direction.
 
-A wire fault is itself the port's filter (hil/devices.py ``WireFilter``): while it is in
+A wire fault is itself the port's filter (hil/flight/devices.py ``WireFilter``): while it is in
 ``devices.wire_filters[port]``, ``tx(data, t_ns)`` sees every chunk the device writes to
 the flight code, ``rx(data, t_ns)`` every chunk the flight code writes to the device, and
 ``poll(t_ns)`` (once per tick) releases bytes held back. When the fault ends it stops

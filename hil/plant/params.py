@@ -1,7 +1,7 @@
 """Plant parameters: frozen dataclasses whose defaults are the paper's vehicle.
 
 Every field carries its unit in its name. Each class sets ``__pydantic_config__`` so that
-``hil/config.py`` can validate a rig TOML table straight into it (unknown keys rejected);
+``hil/config/files.py`` can validate a rig TOML table straight into it (unknown keys rejected);
 this module itself imports nothing but the standard library.
 
 Where a number comes from is said next to it:

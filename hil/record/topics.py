@@ -260,7 +260,7 @@ EVENT = _message(
     kind=_str("source: scenario, fault, run, device.<port> ..."), name=_str("event name"),
     detail=_free("event fields (free-form)"))
 
-_CRITERION = {"type": "object", "description": "one criterion (hil.criteria.CriterionResult)",
+_CRITERION = {"type": "object", "description": "one criterion (hil.analysis.criteria.CriterionResult)",
               "properties": {"name": _str("criterion"), "signal": _str("trace signal"),
                              "metric": _str("metric"), "value": _num("measured value, signal units"),
                              "bound": _str("the bound, as written in the scenario"),

@@ -23,7 +23,7 @@ from hil.vtime.preload import Fallback, check_program, shim_library
 from hil.vtime.scheduler import ScheduledPort, Stall, VirtualClock
 
 if TYPE_CHECKING:
-    from hil.flightproc import FlightProcess
+    from hil.flight.process import FlightProcess
 
 #: what an uncovered call means for the flight code, for the warning
 UNCOVERED_WHY = {

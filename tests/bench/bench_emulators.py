@@ -5,7 +5,7 @@ Run: ``.venv/bin/python tests/bench/bench_emulators.py [--ticks N] [--rounds R]
 slowest 1 % of ticks (the mean counts the rare expensive ticks, e.g. a PPM frame every ninth
 tick; the top 1 % are mostly the shared machine's scheduling gaps).
 
-Pieces, each driven the way ``hil/devices.py`` drives it on every tick:
+Pieces, each driven the way ``hil/flight/devices.py`` drives it on every tick:
 
 * ``adc``: the four pipelined MCP3204 conversions as the flight code sends them (per
   channel ``02 12 <3 bytes> 03``, all four channels in ONE ``BusPirate.receive`` call), then

@@ -2,7 +2,7 @@
 
 Run: ``.venv/bin/python tests/bench/bench_memory.py [--short 10] [--long 600] [--scenario hover]``
 
-Each flight is one recorded lockstep ``hil.run.run_flight`` (the scenario's duration
+Each flight is one recorded lockstep ``hil.flight.run.run_flight`` (the scenario's duration
 overridden) in a fresh interpreter, so one flight's memory cannot hide in the other's. The
 figure is that interpreter's ``ru_maxrss`` (RUSAGE_SELF): the bench process alone, not the
 flight code or the recorder (child processes). The issue's bound: the long flight within
@@ -25,8 +25,8 @@ import tempfile
 _CHILD = r"""
 import json, resource, sys, tracemalloc
 from pathlib import Path
-from hil.bench import Mode
-from hil.run import run_flight
+from hil.flight.tickloop import Mode
+from hil.flight.run import run_flight
 
 scenario, duration_s, out, top = sys.argv[1], float(sys.argv[2]), Path(sys.argv[3]), int(sys.argv[4])
 if top:

@@ -4,7 +4,7 @@ Run: ``.venv/bin/python tests/bench/bench_realtime_steal.py [--runs N] [--second
 
 Flies N realtime hovers of S seconds one after another (the default rig: SCHED_FIFO and the
 CPU latency request where the host allows them) and prints, per run, the steal time the run
-saw over its tick loop (``timing["host_steal_ms"]``, hil/steal.py), its late ticks, samples
+saw over its tick loop (``timing["host_steal_ms"]``, hil/host/steal.py), its late ticks, samples
 without a command and response p99; then the runs split by whether any steal time was
 counted. On a virtual machine this shows whether what is left of the realtime misses comes
 from inside the guest (misses in runs without steal time) or from the host.
@@ -20,8 +20,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from hil.bench import Mode  # noqa: E402
-from hil.run import run_flight  # noqa: E402
+from hil.flight.tickloop import Mode  # noqa: E402
+from hil.flight.run import run_flight  # noqa: E402
 
 
 def main() -> None:

@@ -79,7 +79,7 @@ def per_call(exe: Path, repeats: int) -> dict[str, tuple[float, float]]:
 
 
 def rtf(repeats: int, seconds: float) -> dict[str, list[float]]:
-    from hil.run import run_flight
+    from hil.flight.run import run_flight
 
     out: dict[str, list[float]] = {"virtual": [], "wall": []}
     with tempfile.TemporaryDirectory(prefix="hil-bench-vtime-") as tmp:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hil.bench import EndReason
+from hil.flight.tickloop import EndReason
 from hil.config import ConfigError
 from hil.pytest_plugin import PredicateFailed, RunEnded, SimTimeout
 from hil.record import iter_messages, read_metadata

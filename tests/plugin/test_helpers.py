@@ -14,7 +14,7 @@ from hil.pytest_plugin import (
     build_scenario,
     keep_dir_of,
 )
-from hil.rig import load_rig
+from hil.config.rig import load_rig
 
 pytest_plugins = ["pytester"]
 

@@ -8,10 +8,10 @@ from typing import Any
 
 import pytest
 
-from hil.bench import Mode
-from hil.rig import Rig, load_rig
-from hil.run import RunResult, run_flight_async
-from hil.scenario import load_scenario
+from hil.flight.tickloop import Mode
+from hil.config.rig import Rig, load_rig
+from hil.flight.run import RunResult, run_flight_async
+from hil.config.scenario import load_scenario
 
 
 def explain(result: RunResult) -> str:

@@ -20,11 +20,11 @@ import serial
 import tomli_w
 from rich.console import Console
 
-from hil.attach import PortAttachment, load_ports_table, parse_attach_flags, refuse_lockstep, resolve_attachments
+from hil.config.attach import PortAttachment, load_ports_table, parse_attach_flags, refuse_lockstep, resolve_attachments
 from hil.config import ConfigError
-from hil.devices_cmd import serve_devices
-from hil.rig import load_rig
-from hil.scenario import load_scenario
+from hil.flight.devices_live import serve_devices
+from hil.config.rig import load_rig
+from hil.config.scenario import load_scenario
 from tests.transport.nullmodem import loopback_server, null_modem
 
 pytestmark = [pytest.mark.pty]
@@ -176,9 +176,9 @@ async def test_devices_over_null_modems_and_socket(tmp_path: Path) -> None:
 # -- hil run: our flight code through null modems, realtime -----------------------------------
 @pytest.mark.system
 async def test_flight_code_flies_through_null_modems(tmp_path: Path) -> None:
-    from hil.bench import EndReason, Mode
+    from hil.flight.tickloop import EndReason, Mode
     from hil.record import read_wire
-    from hil.run import run_flight_async
+    from hil.flight.run import run_flight_async
 
     names = ("imu", "adc", "rc", "esc", "telemetry")
     base = tomllib.loads((REPO / "rigs" / "paper-quad.toml").read_text())

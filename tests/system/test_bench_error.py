@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from hil.bench import EndReason, Mode
+from hil.flight.tickloop import EndReason, Mode
 from hil.record import iter_messages
-from hil.run import run_flight
+from hil.flight.run import run_flight
 from tests.system.conftest import at_tick
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]

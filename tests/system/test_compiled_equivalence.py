@@ -32,15 +32,15 @@ SCENARIO, DURATION_S = "altitude-step", 4.0
 FLY = """
 import json, sys
 from pathlib import Path
-import emulators.base, emulators.mcp3204.device, hil.plant.plant, hil.bench, hil.devices, hil.criteria_stream
-from hil.bench import Mode
-from hil.run import run_flight
+import emulators.base, emulators.mcp3204.device, hil.plant.plant, hil.flight.tickloop, hil.flight.devices, hil.analysis.criteria_stream
+from hil.flight.tickloop import Mode
+from hil.flight.run import run_flight
 res = run_flight(None, sys.argv[1], mode=Mode.LOCKSTEP, duration_s=float(sys.argv[2]), out_dir=Path(sys.argv[3]))
 # the flight's criteria (host timing figures left out: they measure the host, not the flight)
 criteria = [(c.name, repr(c.value), c.passed, c.detail) for c in res.criteria if not c.signal.startswith("timing.")]
 print(json.dumps({"end": res.end_reason.value, "log": str(res.log_path), "criteria": criteria,
                   "modules": [emulators.base.__file__, emulators.mcp3204.device.__file__, hil.plant.plant.__file__,
-                              hil.bench.__file__, hil.devices.__file__, hil.criteria_stream.__file__]}))
+                              hil.flight.tickloop.__file__, hil.flight.devices.__file__, hil.analysis.criteria_stream.__file__]}))
 """
 
 

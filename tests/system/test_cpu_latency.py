@@ -1,4 +1,4 @@
-"""A run's CPU latency request (hil/cpulatency.py): the bench holds it while the run flies,
+"""A run's CPU latency request (hil/host/cpulatency.py): the bench holds it while the run flies,
 in lockstep and realtime, nothing it starts holds it, it is gone when the run ends, and
 ``cpu_latency = "require"`` on a host that refuses it stops before anything is created."""
 
@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from hil import cpulatency
-from hil.bench import EndReason, Mode
+from hil.host import cpulatency
+from hil.flight.tickloop import EndReason, Mode
 from hil.config import ConfigError
-from hil.rig import load_rig
+from hil.config.rig import load_rig
 from tests.system.conftest import at_tick, explain
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]

@@ -15,11 +15,11 @@ import signal
 import numpy as np
 import pytest
 
-from hil.bench import Clock, TickLoop
-from hil.devices import DeviceSet
+from hil.flight.tickloop import Clock, TickLoop
+from hil.flight.devices import DeviceSet
 from hil.record import iter_messages, read_wire
-from hil.run import RunResult
-from hil.scenario_runner import ScenarioRunner
+from hil.flight.run import RunResult
+from hil.flight.scenario_runner import ScenarioRunner
 from tests.system.conftest import explain
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]

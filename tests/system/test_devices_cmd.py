@@ -9,9 +9,9 @@ import pytest
 import serial
 from rich.console import Console
 
-from hil.devices_cmd import serve_devices
-from hil.rig import load_rig
-from hil.scenario import load_scenario
+from hil.flight.devices_live import serve_devices
+from hil.config.rig import load_rig
+from hil.config.scenario import load_scenario
 
 pytestmark = [pytest.mark.pty]
 

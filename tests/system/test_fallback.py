@@ -7,9 +7,9 @@ import dataclasses
 
 import pytest
 
-from hil.bench import Clock, EndReason
+from hil.flight.tickloop import Clock, EndReason
 from hil.record import read_metadata
-from hil.rig import load_rig
+from hil.config.rig import load_rig
 from tests.system.conftest import explain
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]

@@ -7,7 +7,7 @@ import gc
 
 import pytest
 
-from hil.bench import EndReason
+from hil.flight.tickloop import EndReason
 from tests.system.conftest import explain
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]

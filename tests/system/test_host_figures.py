@@ -1,9 +1,9 @@
 """What a run reports of its host.
 
-* Steal time (hil/steal.py): every run's timing carries what the hypervisor took over its
+* Steal time (hil/host/steal.py): every run's timing carries what the hypervisor took over its
   tick loop, and so does its log. A realtime run whose samples went without a command while
   the host took time says so in a note.
-* The cores it kept busy (hil/cpuuse.py): the flight code's and the recorder's CPU per
+* The cores it kept busy (hil/host/cpuuse.py): the flight code's and the recorder's CPU per
   tick beside the bench's, and their sum over the wall time."""
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ import os
 
 import pytest
 
-import hil.run
-from hil.bench import EndReason, Mode
+import hil.flight.run
+from hil.flight.tickloop import EndReason, Mode
 from hil.record import read_metadata
-from hil.steal import read_steal_ms
+from hil.host.steal import read_steal_ms
 from tests.system.conftest import explain
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
@@ -45,7 +45,7 @@ class _StolenMeter:
 
 
 async def test_realtime_misses_with_steal_time_get_a_note(fly, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(hil.run, "StealMeter", _StolenMeter)
+    monkeypatch.setattr(hil.flight.run, "StealMeter", _StolenMeter)
     # ADC replies held 3 ms: no sample's command can come within its 2.5 ms tick
     result = await fly("hover", duration_s=0.3, mode=Mode.REALTIME, stress_adc_delay_us=3000.0)
     assert result.timing["host_steal_ms"] == 30.0
@@ -59,7 +59,7 @@ async def test_no_note_when_the_host_took_nothing(fly, monkeypatch: pytest.Monke
         def stop(self) -> float:
             return 0.0
 
-    monkeypatch.setattr(hil.run, "StealMeter", _Nothing)
+    monkeypatch.setattr(hil.flight.run, "StealMeter", _Nothing)
     result = await fly("hover", duration_s=0.3, mode=Mode.REALTIME, stress_adc_delay_us=3000.0)
     assert result.timing["host_steal_ms"] == 0.0 and result.timing["rt_no_command"] > 0
     assert not [n for n in result.notes if "steal time" in n]

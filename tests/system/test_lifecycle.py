@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from hil.bench import EndReason
+from hil.flight.tickloop import EndReason
 from hil.record import TornRecordingError, message_counts, read_metadata, read_topic
 from tests.system.conftest import explain
 

@@ -1,4 +1,4 @@
-"""Which sample an ESC command answers, on the host clock (hil/bench.py).
+"""Which sample an ESC command answers, on the host clock (hil/flight/tickloop.py).
 
 The Maestro protocol carries no sample number: the bench credits a sample with the first
 command after it. A command that comes while the flight code has not yet read the newest
@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hil.bench import EndReason, Mode
+from hil.flight.tickloop import EndReason, Mode
 from hil.record import read_topic
 from tests.system.conftest import explain
 

@@ -1,4 +1,4 @@
-"""A realtime run's scheduling (hil/rtsched.py): the tick loop and the flight code run on
+"""A realtime run's scheduling (hil/host/rtsched.py): the tick loop and the flight code run on
 SCHED_FIFO where the host allows it, the recorder does not, the bench's thread is put back
 when the run ends, and ``policy = "fifo"`` on a host that refuses it stops before anything is
 created."""
@@ -11,10 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from hil.bench import EndReason, Mode
+from hil.flight.tickloop import EndReason, Mode
 from hil.config import ConfigError
-from hil.rig import load_rig
-from hil.rtsched import RtPolicy, fifo_allowed
+from hil.config.rig import load_rig
+from hil.host.rtsched import RtPolicy, fifo_allowed
 from tests.system.conftest import at_tick, explain
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from hil.report import MOTOR_STYLES, figures, make_report
-from hil.timing import analyze_log
+from hil.analysis.report import MOTOR_STYLES, figures, make_report
+from hil.analysis.timing import analyze_log
 
 pytestmark = [pytest.mark.system]
 
@@ -17,9 +17,9 @@ pytestmark = [pytest.mark.system]
 def recorded(tmp_path_factory: pytest.TempPathFactory):
     import asyncio
 
-    from hil.rig import load_rig
-    from hil.run import run_flight_async
-    from hil.scenario import load_scenario
+    from hil.config.rig import load_rig
+    from hil.flight.run import run_flight_async
+    from hil.config.scenario import load_scenario
 
     out = tmp_path_factory.mktemp("logs")
     rig = load_rig(None)
@@ -38,7 +38,7 @@ def test_summary_and_hil_timing_give_one_compute_p99(recorded) -> None:
 
 
 def test_report_keeps_hil_timing_png_and_names_its_own(recorded, tmp_path: Path) -> None:
-    from hil.timing import plot_latency
+    from hil.analysis.timing import plot_latency
 
     log: Path = recorded.log_path
     timing_png = plot_latency(log, tmp_path / (log.name.removesuffix(".mcap") + "_timing.png"), budget_us=1000.0)

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hil.bench import EndReason
+from hil.flight.tickloop import EndReason
 from hil.config import SCENARIOS_DIR
-from hil.criteria import evaluate
-from hil.run import RunResult
-from hil.scenario import load_scenario
+from hil.analysis.criteria import evaluate
+from hil.flight.run import RunResult
+from hil.config.scenario import load_scenario
 from hil.record import message_counts, read_metadata
 from hil.record.validate import validate
 from tests.system.conftest import explain
@@ -27,8 +27,8 @@ SHIPPED = sorted(p.stem for p in SCENARIOS_DIR.glob("*.toml"))
 
 
 def assert_streamed_as_batch(result: RunResult, name: str) -> None:
-    """The run's verdicts (streamed, hil/criteria_stream.py) are the batch criteria's on the
-    whole-run trace the run kept (hil/criteria.py)."""
+    """The run's verdicts (streamed, hil/analysis/criteria_stream.py) are the batch criteria's on the
+    whole-run trace the run kept (hil/analysis/criteria.py)."""
     scenario = load_scenario(SCENARIOS_DIR / f"{name}.toml")
     assert result.trace is not None
     batch = evaluate(scenario.criteria, result.trace)
@@ -103,7 +103,7 @@ async def test_every_tick_reaches_the_log_and_the_trace(fly) -> None:
 async def test_realtime_mode_runs_on_the_wall_clock(fly) -> None:
     """Realtime: paced by the precise pacer, commands applied when they arrive. Only the
     mechanics are asserted here; the timing figures belong to `hil perf`."""
-    from hil.bench import Mode
+    from hil.flight.tickloop import Mode
 
     result = await fly("hover", duration_s=2.0, mode=Mode.REALTIME)
     assert result.end_reason is EndReason.COMPLETED, explain(result)
@@ -116,7 +116,7 @@ async def test_realtime_mode_runs_on_the_wall_clock(fly) -> None:
     # whether realtime was held depends on the machine's load: the run and `hil timing` must
     # say the same thing about it, from the lateness recorded per sample
     from hil.record import read_topic
-    from hil.timing import analyze_log
+    from hil.analysis.timing import analyze_log
 
     held = [c for c in result.criteria if c.name == "realtime held"]
     assert len(held) == 1
@@ -128,8 +128,8 @@ async def test_realtime_mode_runs_on_the_wall_clock(fly) -> None:
 
 async def test_report_and_timing_of_a_log(fly, tmp_path: Path) -> None:
     """`hil report` writes its four PNGs; `hil timing` analyses the same log."""
-    from hil.report import make_report
-    from hil.timing import analyze_log
+    from hil.analysis.report import make_report
+    from hil.analysis.timing import analyze_log
 
     result = await fly("hover", duration_s=4.0)
     assert result.log_path is not None
@@ -149,10 +149,10 @@ async def test_hover_that_never_took_off_fails(tmp_path: Path) -> None:
     """The hover without its arming gesture: the flight code never arms, the vehicle stands
     on the ground, and the verdict must be FAIL (the must-have-flown bound fails, and the
     angles' must-move bound too), not a pass on a vehicle that never flew."""
-    from hil.bench import Mode
-    from hil.rig import load_rig
-    from hil.run import run_flight_async
-    from hil.scenario import load_scenario
+    from hil.flight.tickloop import Mode
+    from hil.config.rig import load_rig
+    from hil.flight.run import run_flight_async
+    from hil.config.scenario import load_scenario
 
     rig = load_rig(None)
     source = rig.scenario_path("hover")
@@ -189,10 +189,10 @@ async def test_payload_barely_changes_tracking_on_twin_runs(tmp_path: Path) -> N
     (docs/aerodynamics.md section 4.1)."""
     import numpy as np
 
-    from hil.bench import Mode
-    from hil.rig import load_rig
-    from hil.run import run_flight_async
-    from hil.scenario import load_scenario
+    from hil.flight.tickloop import Mode
+    from hil.config.rig import load_rig
+    from hil.flight.run import run_flight_async
+    from hil.config.scenario import load_scenario
 
     rig = load_rig(None)
     source = rig.scenario_path("payload")

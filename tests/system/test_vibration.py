@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from hil.bench import EndReason
+from hil.flight.tickloop import EndReason
 from hil.record.reader import read_topic
 from tests.system.conftest import explain
 

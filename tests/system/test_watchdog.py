@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hil.bench import Clock
+from hil.flight.tickloop import Clock
 from hil.config import load_toml
 from hil.record import iter_messages, read_topic
-from hil.rig import load_rig
+from hil.config.rig import load_rig
 from tests.system.conftest import explain
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]

@@ -14,9 +14,9 @@ import pytest
 
 from emulators.analog import AnalogFrontEnd
 from emulators.mcp3204 import quantize
-from hil.devices import spawn_rngs
+from hil.flight.devices import spawn_rngs
 from hil.plant.atmosphere import isa_pressure_Pa
-from hil.rig import load_rig
+from hil.config.rig import load_rig
 
 REST = (0.0, 0.0, -9.80665)
 #: Climb the stage must still read above the field for the worst unit, m (the scenarios fly

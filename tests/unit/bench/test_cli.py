@@ -47,7 +47,7 @@ def test_faults_lists_the_catalogue() -> None:
 
 
 def test_mode_names_match_the_bench() -> None:
-    from hil.bench import Mode
+    from hil.flight.tickloop import Mode
     from hil.cli import _MODES
 
     assert tuple(m.value for m in Mode) == _MODES

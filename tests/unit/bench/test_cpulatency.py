@@ -1,4 +1,4 @@
-"""The CPU latency request (hil/cpulatency.py): what is written, that it is held for the
+"""The CPU latency request (hil/host/cpulatency.py): what is written, that it is held for the
 block only and not inherited, and a clear refusal where ``cpu_latency = "require"`` asks for
 what the host does not give.
 
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from hil.cpulatency import DEVICE, CpuLatencyError, CpuLatencyRequest, LatencyMode, allowed
+from hil.host.cpulatency import DEVICE, CpuLatencyError, CpuLatencyRequest, LatencyMode, allowed
 
 
 class FakeDevice:

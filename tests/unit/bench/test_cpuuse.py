@@ -1,4 +1,4 @@
-"""The CPU of a run's other processes (hil/cpuuse.py): read from /proc, over a stretch, and
+"""The CPU of a run's other processes (hil/host/cpuuse.py): read from /proc, over a stretch, and
 refused where the process was not there at both ends or was replaced."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from hil.cpuuse import ChildCpu, process_cpu_ns
+from hil.host.cpuuse import ChildCpu, process_cpu_ns
 
 TICK_NS = 1_000_000_000 // os.sysconf("SC_CLK_TCK")
 

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from hil.criteria import evaluate
-from hil.scenario import Criterion
-from hil.trace import Trace
+from hil.analysis.criteria import evaluate
+from hil.config.scenario import Criterion
+from hil.analysis.trace import Trace
 
 TICK = 2_500_000
 

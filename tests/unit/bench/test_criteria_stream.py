@@ -2,7 +2,7 @@
 
 Property tests (hypothesis): random traces (tick groups with NaNs, an irregular series whose
 points arrive late, as telemetry does) fed at once to the whole-run ``Trace`` (the batch
-reference, hil/criteria.py) and to the ``TraceStream`` with its ``CriteriaStream``, in chunks
+reference, hil/analysis/criteria.py) and to the ``TraceStream`` with its ``CriteriaStream``, in chunks
 of random size; every criterion's value agrees to rounding.
 """
 
@@ -15,11 +15,11 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from hil.criteria import CriterionResult, evaluate
-from hil.criteria_stream import CriteriaStream
-from hil.scenario import Criterion
-from hil.trace import Trace
-from hil.trace_stream import TraceStream, TraceTee
+from hil.analysis.criteria import CriterionResult, evaluate
+from hil.analysis.criteria_stream import CriteriaStream
+from hil.config.scenario import Criterion
+from hil.analysis.trace import Trace
+from hil.analysis.trace_stream import TraceStream, TraceTee
 
 TICK_NS = 25_000_000  # coarse ticks: a few hundred cover seconds of windows and steps
 METRICS = ["max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std", "rms_delta",

@@ -1,13 +1,13 @@
 """A deferred trace stream (realtime runs): released chunks wait in a queue and reach the
-subscribers one call at a time, while the caller has time (hil/run.py ``pump_before``)."""
+subscribers one call at a time, while the caller has time (hil/flight/run.py ``pump_before``)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from hil import clock
-from hil.run import SLACK_MARGIN_NS, SLACK_MAX_QUEUED, pump_before
-from hil.trace_stream import Chunk, TraceStream
+from hil.flight.run import SLACK_MARGIN_NS, SLACK_MAX_QUEUED, pump_before
+from hil.analysis.trace_stream import Chunk, TraceStream
 
 TICK_NS = 2_500_000
 

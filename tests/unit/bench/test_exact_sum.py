@@ -1,4 +1,4 @@
-"""``ExactSum`` (hil/online_stats.py): the step criteria's levels, summed block by block in
+"""``ExactSum`` (hil/analysis/online_stats.py): the step criteria's levels, summed block by block in
 the stream and at once in the batch, must be the same float to the bit."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from hil.online_stats import ExactSum
+from hil.analysis.online_stats import ExactSum
 
 finite = st.floats(-1e12, 1e12, allow_nan=False, allow_infinity=False)
 #: every finite double: subnormals, the largest, both zeros (sums may overflow: see below)

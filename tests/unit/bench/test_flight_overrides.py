@@ -6,9 +6,9 @@ from __future__ import annotations
 import tomllib
 from pathlib import Path
 
-from hil.rig import load_rig
-from hil.run import write_flight_config
-from hil.scenario import Scenario
+from hil.config.rig import load_rig
+from hil.flight.run import write_flight_config
+from hil.config.scenario import Scenario
 
 
 class _Port:

@@ -3,7 +3,7 @@
 
 The run's trace stream and streaming criteria (a shipped scenario's criteria of every kind,
 with the delay line and the held telemetry statistics the run keeps) are fed 10 s and 600 s of
-synthetic 400 Hz rows with 50 Hz telemetry stamped before it arrives, as hil/runlog.py feeds
+synthetic 400 Hz rows with 50 Hz telemetry stamped before it arrives, as hil/flight/runlog.py feeds
 them; tracemalloc measures what they hold at the end. A memory measurement with a bound, not a
 timed assertion. (tests/bench/bench_memory.py measures a whole bench process.)
 """
@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import math
 
-from hil.criteria_stream import CriteriaStream
-from hil.runlog import STAMP_MAX_AGE_NS
-from hil.scenario import Criterion
-from hil.signal_stream import Held
-from hil.timing import StreamingStats
+from hil.analysis.criteria_stream import CriteriaStream
+from hil.flight.runlog import STAMP_MAX_AGE_NS
+from hil.config.scenario import Criterion
+from hil.analysis.signal_stream import Held
+from hil.analysis.timing import StreamingStats
 from tests.unit.bench.traced import traced
-from hil.trace_stream import TraceStream
+from hil.analysis.trace_stream import TraceStream
 
 TICK_NS = 2_500_000
 TM_EVERY = 8  # telemetry at 50 Hz

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import emulators.base
-import hil.devices
+import hil.flight.devices
 import hil.plant.plant
 from hil import native
 
@@ -14,7 +14,7 @@ def test_compiled_matches_the_modules_files() -> None:
     state = native.compiled()
     assert state == {"emulators": not emulators.base.__file__.endswith(".py"),
                      "hil.plant": not str(hil.plant.plant.__file__).endswith(".py"),
-                     "hil tick path": not str(hil.devices.__file__).endswith(".py")}
+                     "hil tick path": not str(hil.flight.devices.__file__).endswith(".py")}
 
 
 def test_describe_names_the_state() -> None:

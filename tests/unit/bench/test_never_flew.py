@@ -15,9 +15,9 @@ import re
 import pytest
 
 from hil.config import SCENARIOS_DIR
-from hil.criteria import evaluate
-from hil.scenario import load_scenario
-from hil.trace import Trace
+from hil.analysis.criteria import evaluate
+from hil.config.scenario import load_scenario
+from hil.analysis.trace import Trace
 
 TICK_NS = 2_500_000
 TM_PERIOD_NS = 20_000_000

@@ -9,8 +9,8 @@ from typing import Any
 
 import pytest
 
-import hil.bench
-from hil.bench import RT_ANSWER_SHARE, Mode, TickLoop
+import hil.flight.tickloop
+from hil.flight.tickloop import RT_ANSWER_SHARE, Mode, TickLoop
 
 TICK_NS = 2_500_000
 
@@ -65,7 +65,7 @@ def _loop(devices: _Devices, ticks: int, seen: list[tuple[int, bool]]) -> TickLo
 def test_bookkeeping_follows_the_samples_command(monkeypatch: pytest.MonkeyPatch) -> None:
     # The wait is measured from the tick's wall deadline: on a loaded machine a late tick has
     # less of it left, so the test lets it wait up to 1 s (the answer comes 0.3 ms after emit).
-    monkeypatch.setattr(hil.bench, "RT_ANSWER_SHARE", 400.0)
+    monkeypatch.setattr(hil.flight.tickloop, "RT_ANSWER_SHARE", 400.0)
     devices = _Devices(answer_s=0.0003)
     seen: list[tuple[int, bool]] = []
     loop = _loop(devices, 40, seen)

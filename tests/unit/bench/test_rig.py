@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 
 from hil.config import SCENARIOS_DIR, ConfigError
-from hil.rig import load_rig
-from hil.scenario import load_scenario
-from hil.scenario_runner import ScenarioRunner
+from hil.config.rig import load_rig
+from hil.config.scenario import load_scenario
+from hil.flight.scenario_runner import ScenarioRunner
 
 ROOT = Path(__file__).resolve().parents[3]
 

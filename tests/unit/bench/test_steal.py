@@ -1,4 +1,4 @@
-"""Steal time (hil/steal.py): read from the kernel's per-CPU accounting, measured over a
+"""Steal time (hil/host/steal.py): read from the kernel's per-CPU accounting, measured over a
 stretch, and turned into a realtime run's note only when misses came with it."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from hil.steal import PROC_STAT, StealMeter, read_steal_ms, realtime_note
+from hil.host.steal import PROC_STAT, StealMeter, read_steal_ms, realtime_note
 
 HZ = os.sysconf("SC_CLK_TCK")
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hil import telemetry as tm
+from hil.flight import telemetry as tm
 
 
 def _frame(data: bytes, *, escaped: bool = False, bad_checksum: bool = False) -> bytes:

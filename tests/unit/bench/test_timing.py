@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from hil.record import Recorder
-from hil.scenario import Scenario, ScenarioHeader
-from hil.scenario_runner import ScenarioRunner
-from hil.timing import analyze_arrays, analyze_log
+from hil.config.scenario import Scenario, ScenarioHeader
+from hil.flight.scenario_runner import ScenarioRunner
+from hil.analysis.timing import analyze_arrays, analyze_log
 
 PERIOD_NS = 2_500_000
 
@@ -73,7 +73,7 @@ def test_from_a_written_log(tmp_path: Path) -> None:
 
 
 def _runner_with(budgets: dict[str, float]) -> ScenarioRunner:
-    from hil.rig import load_rig
+    from hil.config.rig import load_rig
 
     sc = Scenario(scenario=ScenarioHeader(name="t", duration_s=1.0), timing=budgets)
     return ScenarioRunner(sc, load_rig(None))
@@ -98,7 +98,7 @@ def test_unknown_budget_is_refused() -> None:
 
 # -- realtime: held or not, from the pacer's lateness ------------------------------------------------------
 def test_realtime_is_held_when_lateness_stays_within_a_tick() -> None:
-    from hil.timing import realtime_verdict
+    from hil.analysis.timing import realtime_verdict
 
     rng = np.random.default_rng(3)
     late_us = np.abs(rng.normal(0, 150, 8000))
@@ -111,7 +111,7 @@ def test_realtime_is_held_when_lateness_stays_within_a_tick() -> None:
 
 @pytest.mark.parametrize("what", ["behind for good", "one long stall"])
 def test_realtime_not_held_says_so(what: str) -> None:
-    from hil.timing import REALTIME_MAX_LATE_US, realtime_verdict
+    from hil.analysis.timing import REALTIME_MAX_LATE_US, realtime_verdict
 
     late_us = np.full(8000, 100.0)
     if what == "behind for good":  # measured under load: samples 0.9 s late, RTF still about 1
@@ -124,7 +124,7 @@ def test_realtime_not_held_says_so(what: str) -> None:
 
 
 def test_lockstep_has_no_realtime_verdict_and_scaled_compute() -> None:
-    from hil.timing import realtime_verdict, scaled_compute_us
+    from hil.analysis.timing import realtime_verdict, scaled_compute_us
 
     assert realtime_verdict(np.full(100, -1.0)) is None  # lockstep samples carry -1
     np.testing.assert_array_equal(scaled_compute_us(np.array([100.0, -1.0, 250.0]), 4.0), [400.0, 1000.0])

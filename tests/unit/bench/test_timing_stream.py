@@ -10,9 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from hil.bench import TickStats
-from hil.devices import LatencySample
-from hil.timing import STREAM_RESOLUTION, LatencyStats, StreamingStats
+from hil.flight.tickloop import TickStats
+from hil.flight.devices import LatencySample
+from hil.analysis.timing import STREAM_RESOLUTION, LatencyStats, StreamingStats
 from tests.unit.bench.traced import traced
 
 TICK_NS = 2_500_000

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hil.trace import Trace
+from hil.analysis.trace import Trace
 from tests.unit.bench.traced import traced
 
 WIDTHS = {"a": 1, "b": 3, "c": 4}  # 8 columns

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from hil.campaign import failure, run_case
+from hil.fleet.campaign import failure, run_case
 
 DIE_SEED = 13
 

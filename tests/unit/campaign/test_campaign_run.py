@@ -16,7 +16,7 @@ from typing import Any
 import pytest
 from rich.console import Console
 
-from hil.campaign import CampaignRun, KeepLogs, load_campaign, run_campaign
+from hil.fleet.campaign import CampaignRun, KeepLogs, load_campaign, run_campaign
 from hil.record import read_attachments, read_metadata
 from tests.unit.campaign import cases as fake
 
@@ -114,10 +114,10 @@ def test_a_case_whose_process_is_killed_is_a_failure_not_a_crashed_campaign(tmp_
 def test_keep_logs_none_flies_unrecorded(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, keep: str,
                                          record: bool) -> None:
     """A log that would be deleted whatever the verdict is not written at all."""
-    import hil.run
-    from hil import campaign_case
-    from hil.bench import EndReason
-    from hil.run import RunResult
+    import hil.flight.run
+    from hil.fleet import campaign_case
+    from hil.flight.tickloop import EndReason
+    from hil.flight.run import RunResult
 
     asked: dict[str, Any] = {}
 
@@ -125,7 +125,7 @@ def test_keep_logs_none_flies_unrecorded(tmp_path: Path, monkeypatch: pytest.Mon
         asked.update(kwargs)
         return RunResult(None, EndReason.COMPLETED, [], 0, [], {}, {})
 
-    monkeypatch.setattr(hil.run, "run_flight_async", fake_flight)
+    monkeypatch.setattr(hil.flight.run, "run_flight_async", fake_flight)
     params = {"case_id": "0000", "rig": str(ROOT / "rigs" / "paper-quad.toml"), "scenario": str(DATA / "hover-2s.toml"),
               "seed": 1, "mode": "lockstep", "duration_s": None, "flight_overrides": {}, "rig_overrides": {},
               "case_dir": str(tmp_path), "log_path": str(tmp_path / "x.mcap"), "keep_logs": keep}
@@ -192,7 +192,7 @@ def test_local_cluster_speaks_tls_and_refuses_clients_without_its_credentials() 
     pytest.importorskip("distributed")
     from distributed import Client
 
-    from hil.campaign import start_local_cluster
+    from hil.fleet.campaign import start_local_cluster
 
     with start_local_cluster(1) as cluster:
         assert cluster.scheduler_address.startswith("tls://127.0.0.1:")

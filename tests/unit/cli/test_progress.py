@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from hil.progress import PlainProgress
+from hil.flight.progress import PlainProgress
 
 
 def _drive(calls: list[tuple[float, str]], every_sim_s: float = 10.0) -> list[str]:

@@ -8,7 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from hil.rundir import OWNER_FILE, current_owner, make_run_dir, read_owner, sweep_stale
+from hil.flight.rundir import OWNER_FILE, current_owner, make_run_dir, read_owner, sweep_stale
 
 
 def _dead_pid() -> int:
@@ -54,7 +54,7 @@ def test_sweep_removes_dirs_of_dead_owners_only(tmp_path: Path) -> None:
 def test_next_run_dir_sweeps_a_killed_bench(tmp_path: Path) -> None:
     """A bench killed with SIGKILL leaves its run dir; the next one removes it."""
     code = (
-        "import os, sys; from pathlib import Path; from hil.rundir import make_run_dir;"
+        "import os, sys; from pathlib import Path; from hil.flight.rundir import make_run_dir;"
         f"d = make_run_dir('hil-killed-', root=Path({str(tmp_path)!r})); (d / 'flight.toml').write_text('x');"
         "print(d, flush=True); os.kill(os.getpid(), 9)"
     )

@@ -2,7 +2,7 @@ from __future__ import annotations
 
 import pytest
 
-from hil.rig import Rig, load_rig
+from hil.config.rig import Rig, load_rig
 from tests.unit.faults.harness import flight_rig
 
 

@@ -1,4 +1,4 @@
-"""A DeviceSet of the default rig on in-memory ports, stepped tick by tick like hil/bench.py,
+"""A DeviceSet of the default rig on in-memory ports, stepped tick by tick like hil/flight/tickloop.py,
 with a FaultSchedule in front; helpers to talk to the devices as the flight code would.
 
 No flight code runs: the tests write what it would write (Xbus, Bus Pirate SPI, Maestro,
@@ -20,9 +20,9 @@ from emulators.rc.script import StickScript
 from emulators.xsens.codec import FrameParser
 from emulators.xsens.defs import MID, XDI
 from emulators.xsens.mtdata2 import unpack_packets
-from hil.devices import DeviceSet
+from hil.flight.devices import DeviceSet
 from hil.faults import FaultSchedule, ScheduledFault
-from hil.rig import Rig
+from hil.config.rig import Rig
 from hil.transport.memory import MemoryPort
 
 PORTS = ("imu", "adc", "rc", "esc", "telemetry", "ground")
@@ -70,7 +70,7 @@ class Bench:
         return self.k * TICK_NS
 
     async def tick(self, n: int = 1) -> None:
-        """``n`` ticks in the order of hil/bench.py (scenario/faults, plant, RC, analog, IMU, rest)."""
+        """``n`` ticks in the order of hil/flight/tickloop.py (scenario/faults, plant, RC, analog, IMU, rest)."""
         d = self.devices
         for _ in range(n):
             t = self.k * TICK_NS

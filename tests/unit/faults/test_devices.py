@@ -14,7 +14,7 @@ from emulators.xbee.frames import ApiParser, tx16
 from emulators.xbee.frames import encode_frame as xbee_frame
 from emulators.xsens.defs import MID
 from hil.faults import load_faults
-from hil.rig import Rig
+from hil.config.rig import Rig
 from tests.unit.faults.harness import (
     Bench,
     arm_and_spin,

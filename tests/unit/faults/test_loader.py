@@ -19,8 +19,8 @@ from hil.faults import (
     load_faults,
     print_catalogue,
 )
-from hil.rig import Rig
-from hil.scenario import Scenario
+from hil.config.rig import Rig
+from hil.config.scenario import Scenario
 
 SRC = "rigs/scenarios/test.toml"
 

@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 from hil.faults import load_faults
-from hil.rig import Rig
+from hil.config.rig import Rig
 from tests.unit.faults.harness import Bench, S, arm_and_spin
 
 SPIN_US = 1500.0  # ~0.48 throttle: rotors turn, the vehicle stays on the ground

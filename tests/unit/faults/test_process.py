@@ -1,4 +1,4 @@
-"""Process faults on a real child process (``sleep``) through hil.flightproc.FlightProcess."""
+"""Process faults on a real child process (``sleep``) through hil.flight.process.FlightProcess."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pytest
 
 from hil.config import ConfigError
 from hil.faults import load_faults
-from hil.flightproc import FlightProcess
-from hil.rig import Rig
+from hil.flight.process import FlightProcess
+from hil.config.rig import Rig
 from tests.unit.faults.harness import Bench
 
 SLEEP = shutil.which("sleep") or "/bin/sleep"
@@ -40,7 +40,7 @@ async def test_kill_ends_the_flight_code(rig: Rig, flight: FlightProcess) -> Non
 async def test_restart_kills_and_starts_again_without_an_exit(rig: Rig, flight: FlightProcess) -> None:
     b = Bench(rig, load_faults([{"kind": "process.restart", "t_s": 0.0, "duration_s": 0.01}], rig, source="t"),
               flight=flight)
-    old, exited = flight.proc, flight.exited  # the event the tick loop watches (hil/bench.py)
+    old, exited = flight.proc, flight.exited  # the event the tick loop watches (hil/flight/tickloop.py)
     assert old is not None
     await b.tick()  # t = 0: killed (a task reaps it)
     assert await asyncio.wait_for(old.wait(), 5.0) == -9

@@ -15,7 +15,7 @@ from emulators.analog.frontend import AccelFault, BaroFault
 from emulators.rc.script import StickScript
 from hil.config import ConfigError
 from hil.faults import FaultHandle, load_faults
-from hil.rig import Rig, load_rig
+from hil.config.rig import Rig, load_rig
 from tests.unit.faults.harness import Bench, imu_samples
 
 MS = 1_000_000

@@ -12,7 +12,7 @@ import numpy as np
 
 from emulators.analog.inverse import f_B_mps2_from_codes, pressure_Pa_from_code
 from hil.faults import load_faults
-from hil.rig import Rig
+from hil.config.rig import Rig
 from tests.unit.faults.harness import Bench, adc_enter_spi, adc_series, imu_samples
 
 G = 9.80665

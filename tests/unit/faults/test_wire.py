@@ -12,7 +12,7 @@ from emulators.xbee.frames import ApiParser, tx16
 from emulators.xbee.frames import encode_frame as xbee_frame
 from emulators.xsens.uart import receive_at_wrong_baud
 from hil.faults import load_faults
-from hil.rig import Rig
+from hil.config.rig import Rig
 from tests.unit.faults.harness import Bench, adc_enter_spi, adc_read, xbus_frames
 
 GOTO_CONFIG = bytes.fromhex("FA FF 30 00 D1")  # research/protocols.md §1 worked frames

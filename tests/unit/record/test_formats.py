@@ -11,8 +11,8 @@ from mcap.reader import make_reader
 
 from hil.record import chunk_counts, iter_messages, message_counts, read_topic, read_wire, recover, validate
 from hil.record.topics import TOPICS
-from hil.replay import replay_ports
-from hil.timing import analyze_log
+from hil.fleet.replay import replay_ports
+from hil.analysis.timing import analyze_log
 from tests.unit.record.support import HOST0_NS, RUN_START_NS, expected_messages, record_examples
 
 OLD = Path(__file__).with_name("data") / "json-v1.mcap"

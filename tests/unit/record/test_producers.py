@@ -1,7 +1,7 @@
 """Contract: what the bench's producers actually log conforms to the topic table's schemas.
 
 The payloads are built from the real event records (emulators, criteria) the way
-hil/runlog.py builds them, so a field renamed on either side fails here, not in a viewer.
+hil/flight/runlog.py builds them, so a field renamed on either side fails here, not in a viewer.
 """
 
 from __future__ import annotations
@@ -14,11 +14,11 @@ from mcap.reader import make_reader
 
 from emulators.mcp3204.device import Mcp3204Conversion
 from emulators.xsens.events import SampleSent
-from hil.criteria import CriterionResult
+from hil.analysis.criteria import CriterionResult
 from hil.record import Recorder
 from hil.record.reader import iter_messages
 from hil.record.validate import validate
-from hil.runlog import _jsonable
+from hil.flight.runlog import _jsonable
 from tests.unit.record.support import RUN_START_NS, strict_json
 
 

@@ -1,4 +1,4 @@
-"""hil.replay.replay: recorded device->client bytes played on real ptys, read back by real
+"""hil.fleet.replay.replay: recorded device->client bytes played on real ptys, read back by real
 pyserial clients. Assertions are on content and order (and on the one-sided property that
 paced playback never runs ahead of the recording), never on wall-time tolerances."""
 
@@ -13,7 +13,7 @@ import pytest
 import serial
 from rich.console import Console
 
-from hil.replay import ReplayError, replay, replay_ports
+from hil.fleet.replay import ReplayError, replay, replay_ports
 from hil.transport.base import WireRecord
 from tests.unit.replay.support import S, synthetic_chunks, write_synthetic
 

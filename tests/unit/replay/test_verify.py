@@ -1,4 +1,4 @@
-"""hil.replay.verify: a real short lockstep run re-run from its own attachments is identical;
+"""hil.fleet.replay.verify: a real short lockstep run re-run from its own attachments is identical;
 a copy with one IMU byte changed is caught at that byte and sim time."""
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ from typing import Any
 
 import pytest
 
-from hil.bench import Mode
+from hil.flight.tickloop import Mode
 from hil.record import iter_messages, read_attachments, read_metadata
-from hil.replay import ReplayError, verify
-from hil.run import RunResult, run_flight
+from hil.fleet.replay import ReplayError, verify
+from hil.flight.run import RunResult, run_flight
 from tests.unit.replay.support import copy_log, synthetic_chunks, write_synthetic
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]

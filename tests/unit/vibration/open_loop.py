@@ -1,5 +1,5 @@
 """An open-loop sensor run of the default rig without ports or flight code: the plant, the
-XSENS and the analog chain wired as hil/devices.py wires them, driven by a fixed throttle
+XSENS and the analog chain wired as hil/flight/devices.py wires them, driven by a fixed throttle
 script (take-off, climb, hover). Used to pin the sensor outputs with vibration off to the
 values recorded before the vibration model existed (data/sensors_before_vibration.json).
 """
@@ -13,9 +13,9 @@ from typing import Any
 
 from emulators.analog.frontend import AnalogFrontEnd
 from emulators.xsens.device import MtiDevice
-from hil.devices import spawn_rngs
+from hil.flight.devices import spawn_rngs
 from hil.plant.plant import Plant
-from hil.rig import Rig, load_rig
+from hil.config.rig import Rig, load_rig
 
 GOLDEN = Path(__file__).with_name("data") / "sensors_before_vibration.json"
 #: XSENS output: packet counter, SampleTimeFine, Acceleration and RateOfTurn at 400 Hz.

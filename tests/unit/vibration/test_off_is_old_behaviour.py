@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 
-from hil.rig import Rig, load_rig
+from hil.config.rig import Rig, load_rig
 from tests.unit.vibration import open_loop
 
 

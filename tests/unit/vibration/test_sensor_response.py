@@ -195,7 +195,7 @@ def test_xsens_bandwidth_overrides_and_errors() -> None:
 
 
 def test_xsens_samples_carry_the_filtered_tone_at_the_sample_instant() -> None:
-    """Driven as hil/devices.py drives it, the 400 Hz acceleration output of a legacy-bandwidth
+    """Driven as hil/flight/devices.py drives it, the 400 Hz acceleration output of a legacy-bandwidth
     mk4 carries |H| of a 97 Hz tone (noise and biases off)."""
     p = XsensParams(output_configuration=((0x4020, 400),), acc_bandwidth_Hz=30.0, output_averaging=False,
                     acc_noise_mps2_per_rthz=0.0, acc_bias_sigma_mps2=0.0, gyro_noise_radps_per_rthz=0.0,

@@ -1,0 +1,399 @@
+"""Timing of the flight code's 400 Hz loop, from a run's MCAP log (or arrays).
+
+Figures (all microseconds unless noted):
+
+* **period**: host-time interval between consecutive ESC commands (the loop's output
+  cadence). In realtime mode this is the loop's real period; in lockstep it is paced by
+  the bench and reported for completeness.
+* **latency**: IMU sample emitted (bench, host clock) -> ESC command received. This is the
+  flight code's response time including both pty hops. In lockstep it is the compute
+  latency of one sample, checked against the 2.5 ms budget even though the run itself is
+  faster than real time.
+* **jitter**: period minus its nominal value.
+* **misses**: samples whose latency exceeded the budget, plus samples with no command at
+  all (barrier timeouts).
+* **compute**: the flight code's compute per loop (:func:`compute_samples_us`, the one rule
+  shared by the run summary and ``hil timing``): with virtual time, the bench's per-sample
+  measurement of the flight code's CPU time (read by the clock shim at each blocking call)
+  scaled to the target by the rig's ``cpu_scale`` (docs/time.md); otherwise the flight
+  code's own figure from its telemetry.
+* **lateness** (realtime only): how late each tick started against its absolute wall
+  deadline. A run whose ticks fell behind is not a 400 Hz run, whatever its RTF says:
+  :func:`realtime_verdict` says whether realtime was held.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from hil.frozen import by_fields
+
+if TYPE_CHECKING:
+    from hil.flight.devices import LatencySample
+
+NOMINAL_PERIOD_US = 2500.0
+#: a realtime tick that starts this late counts as late (the run's late_ticks and hil timing)
+LATE_US = 1000.0
+#: realtime is not held when any tick starts later than this: the flight code then saw a
+#: gap of ten samples (its IMU watchdog is 100 ms; this machine's worst scheduling gaps are
+#: about 3 ms, research limits.md)
+REALTIME_MAX_LATE_US = 25_000.0
+#: relative width of a StreamingStats bin: percentiles are within half of it (0.25 %)
+STREAM_RESOLUTION = 0.005
+#: the width of one histogram bin in log space
+_LOG_STEP = math.log1p(STREAM_RESOLUTION)
+
+
+class StreamingStats:
+    """Count, mean, min, max and percentiles of a stream of numbers in bounded memory.
+
+    A run's timing figures used to keep every sample (a list of ints per tick: tens of MB
+    for a 10-minute flight). This keeps exact count, sum, min and max, and a sparse
+    histogram with logarithmic bins of relative width ``STREAM_RESOLUTION`` (plus an exact
+    bin for 0): memory grows with the spread of the values (about 5 000 bins for 1 ns .. 10 s
+    at 0.5 %), never with the number of samples. ``percentile(q)`` is the bin's centre, within
+    0.25 % of the value ``numpy.percentile(..., method="lower")`` gives. ``append`` keeps it a
+    drop-in for the lists it replaces.
+    """
+
+    __slots__ = ("_bins", "n", "total", "min", "max")
+
+    def __init__(self, values: Iterable[float] = ()) -> None:
+        self._bins: dict[int, int] = {}
+        self.n = 0
+        self.total = 0.0
+        self.min = math.inf
+        self.max = -math.inf
+        for v in values:
+            self.append(v)
+
+    def append(self, value: float, count: int = 1) -> None:
+        """Add ``value`` (``count`` times); non-finite values are left out."""
+        v = float(value)
+        if not math.isfinite(v):
+            return
+        self.n += count
+        self.total += v * count
+        if v < self.min:
+            self.min = v
+        if v > self.max:
+            self.max = v
+        if v == 0.0:
+            key = 0
+        else:  # bins are +-(1 + k) for |v| in [(1+r)^k, (1+r)^(k+1)); k may be negative (|v| < 1)
+            k = math.floor(math.log(abs(v)) / _LOG_STEP)
+            key = (k + (1 << 40)) if v > 0 else -(k + (1 << 40))
+        self._bins[key] = self._bins.get(key, 0) + count
+
+    def extend(self, values: np.ndarray) -> None:
+        """Add a block of values (a held signal repeats each: one bin update per distinct value)."""
+        v = np.asarray(values, dtype=float)
+        distinct, counts = np.unique(v[np.isfinite(v)], return_counts=True)
+        for value, count in zip(distinct.tolist(), counts.tolist(), strict=True):
+            self.append(value, count)
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __bool__(self) -> bool:
+        return self.n > 0
+
+    @property
+    def mean(self) -> float:
+        return self.total / self.n if self.n else math.nan
+
+    def _centre(self, key: int) -> float:
+        if key == 0:
+            return 0.0
+        k = abs(key) - (1 << 40)
+        mid = math.exp((k + 0.5) * _LOG_STEP)
+        return mid if key > 0 else -mid
+
+    def percentile(self, q: float) -> float:
+        """The ``q``-th percentile (0..100); NaN if empty. Exact at 0 and 100 (min, max)."""
+        if not self.n:
+            return math.nan
+        if q <= 0:
+            return self.min
+        if q >= 100:
+            return self.max
+        rank = q / 100.0 * (self.n - 1)  # the order statistic numpy's "lower" method picks
+        seen = 0
+        for key in sorted(self._bins, key=self._centre):
+            seen += self._bins[key]
+            if seen > rank:
+                return min(max(self._centre(key), self.min), self.max)
+        return self.max
+
+    def memory_bins(self) -> int:
+        """Histogram bins held (what the memory grows with)."""
+        return len(self._bins)
+
+
+class PeriodStats:
+    """Intervals between consecutive arrival times, streamed: period and |period - nominal|."""
+
+    __slots__ = ("_last", "nominal", "period", "jitter")
+
+    def __init__(self, nominal: float) -> None:
+        self._last: int | None = None
+        self.nominal = nominal
+        self.period = StreamingStats()
+        self.jitter = StreamingStats()
+
+    def arrival(self, t: int) -> None:
+        if self._last is not None:
+            d = t - self._last
+            self.period.append(d)
+            self.jitter.append(abs(d - self.nominal))
+        self._last = t
+
+
+class LatencyStats:
+    """The run's response-time figures from every ``LatencySample``, streamed (hil/flight/devices.py
+    feeds it as samples arrive): host latency and the ESC command period on the host clock and
+    on sim time (virtual time)."""
+
+    __slots__ = ("host_latency_ns", "host_period", "sim_period", "samples")
+
+    def __init__(self, tick_ns: int = 2_500_000) -> None:
+        self.samples = 0
+        self.host_latency_ns = StreamingStats()
+        self.host_period = PeriodStats(tick_ns)
+        self.sim_period = PeriodStats(tick_ns)
+
+    def add(self, s: LatencySample) -> None:
+        self.samples += 1
+        if s.t_arrival_host_ns is not None:
+            self.host_latency_ns.append(s.t_arrival_host_ns - s.t_emit_host_ns)
+            self.host_period.arrival(s.t_arrival_host_ns)
+        if s.t_arrival_ns is not None:
+            self.sim_period.arrival(s.t_arrival_ns)
+
+
+@dataclass(frozen=True)
+class Stats:
+    n: int
+    p50: float
+    p99: float
+    p999: float
+    max: float
+    mean: float
+
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+
+    @staticmethod
+    def of(values: np.ndarray) -> Stats:
+        v = np.asarray(values, dtype=float)
+        v = v[np.isfinite(v)]
+        if v.size == 0:
+            nan = float("nan")
+            return Stats(0, nan, nan, nan, nan, nan)
+        return Stats(
+            int(v.size),
+            float(np.percentile(v, 50)),
+            float(np.percentile(v, 99)),
+            float(np.percentile(v, 99.9)),
+            float(v.max()),
+            float(v.mean()),
+        )
+
+
+def compute_samples_us(
+    fc_cpu_us: np.ndarray | None, telemetry_compute_us: np.ndarray | None, cpu_scale: float = 1.0
+) -> np.ndarray:
+    """The flight code's compute per loop in us (target processor), from what a run has.
+
+    ``fc_cpu_us``: the bench's per-sample CPU measurement (virtual time), host us, negative
+    where not measured. ``telemetry_compute_us``: the flight code's own figures (50 Hz).
+    ``cpu_scale``: target time per host time. The per-sample measurement wins when it has
+    any sample: it covers every loop, telemetry only every eighth. Non-finite values go.
+    """
+    if fc_cpu_us is not None:
+        cpu = scaled_compute_us(fc_cpu_us, cpu_scale)
+        if cpu.size:
+            return cpu
+    if telemetry_compute_us is None:
+        return np.zeros(0)
+    tm = np.asarray(telemetry_compute_us, dtype=float)
+    return tm[np.isfinite(tm)]
+
+
+@dataclass(frozen=True)
+class TimingReport:
+    samples: int
+    budget_us: float
+    latency_us: Stats
+    period_us: Stats
+    jitter_us: Stats  #: |period - nominal|
+    compute_us: Stats
+    misses: int  #: latency over budget
+    no_command: int  #: barrier timeouts (no ESC command for a sample)
+    lateness_us: Stats | None = None  #: realtime: tick start - its wall deadline
+    realtime: RealtimeVerdict | None = None  #: realtime runs only
+    compute_source: str = "telemetry"  #: "cpu" (virtual time, scaled) or "telemetry"
+
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+
+    def as_dict(self) -> dict[str, object]:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class RealtimeVerdict:
+    """Did a realtime run keep 400 Hz? From the pacer's per-tick lateness."""
+
+    held: bool
+    ticks: int
+    late_ticks: int  #: more than LATE_US late
+    p99_us: float
+    max_us: float
+
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+
+    @property
+    def text(self) -> str:
+        figures = (f"{self.late_ticks} of {self.ticks} ticks more than {LATE_US / 1e3:g} ms late, "
+                   f"lateness p99 {self.p99_us:.0f} us, max {self.max_us / 1e3:.1f} ms")
+        if self.held:
+            return f"realtime held: {figures}"
+        return (f"realtime NOT held: {figures} (allowed: p99 within one tick, none over "
+                f"{REALTIME_MAX_LATE_US / 1e3:g} ms); the samples reached the flight code late, so this "
+                "run's timing figures are not those of a 400 Hz loop")
+
+
+def realtime_held(ticks: int, late_ticks: int, p99_us: float, max_us: float,
+                  tick_us: float = NOMINAL_PERIOD_US) -> RealtimeVerdict:
+    """Held when the lateness p99 is within one tick and no tick is over REALTIME_MAX_LATE_US
+    late (from a run's streamed figures)."""
+    return RealtimeVerdict(p99_us <= tick_us and max_us <= REALTIME_MAX_LATE_US, ticks, late_ticks, p99_us, max_us)
+
+
+def realtime_verdict(lateness_us: np.ndarray, tick_us: float = NOMINAL_PERIOD_US) -> RealtimeVerdict | None:
+    """:func:`realtime_held` from per-sample lateness (a log); None without lateness figures
+    (a lockstep run)."""
+    late = np.asarray(lateness_us, dtype=float)
+    late = late[np.isfinite(late) & (late >= 0)]
+    if late.size == 0:
+        return None
+    return realtime_held(int(late.size), int(np.sum(late > LATE_US)), float(np.percentile(late, 99)),
+                         float(late.max()), tick_us)
+
+
+def scaled_compute_us(fc_cpu_us: np.ndarray, cpu_scale: float) -> np.ndarray:
+    """The flight code's compute per sample on the target processor: its CPU time on this
+    host (us, -1 where not measured) times ``cpu_scale``; unmeasured samples dropped."""
+    cpu = np.asarray(fc_cpu_us, dtype=float)
+    return cpu[np.isfinite(cpu) & (cpu >= 0)] * cpu_scale
+
+
+def analyze_arrays(
+    latency_us: np.ndarray,
+    esc_arrival_host_ns: np.ndarray,
+    *,
+    compute_us: np.ndarray | None = None,
+    budget_us: float = NOMINAL_PERIOD_US,
+    nominal_period_us: float = NOMINAL_PERIOD_US,
+    lateness_us: np.ndarray | None = None,
+    compute_source: str = "telemetry",
+) -> TimingReport:
+    """The report from raw per-sample arrays; negative latency marks a missing command,
+    negative lateness a lockstep sample."""
+    lat = np.asarray(latency_us, dtype=float)
+    missing = lat < 0
+    lat_ok = lat[~missing]
+    arrivals = np.asarray(esc_arrival_host_ns, dtype=np.int64)
+    arrivals = arrivals[arrivals > 0]
+    period = np.diff(arrivals) / 1e3 if arrivals.size > 1 else np.zeros(0)
+    jitter = np.abs(period - nominal_period_us)
+    comp = np.zeros(0) if compute_us is None else np.asarray(compute_us, dtype=float)
+    late = np.zeros(0) if lateness_us is None else np.asarray(lateness_us, dtype=float)
+    verdict = realtime_verdict(late, nominal_period_us)
+    return TimingReport(
+        samples=int(lat.size),
+        budget_us=budget_us,
+        latency_us=Stats.of(lat_ok),
+        period_us=Stats.of(period),
+        jitter_us=Stats.of(jitter),
+        compute_us=Stats.of(comp),
+        misses=int(np.sum(lat_ok > budget_us)),
+        no_command=int(np.sum(missing)),
+        lateness_us=None if verdict is None else Stats.of(late[late >= 0]),
+        realtime=verdict,
+        compute_source=compute_source,
+    )
+
+
+def analyze_log(log: Path, budget_us: float = NOMINAL_PERIOD_US) -> TimingReport:
+    """The report of a run's MCAP (topics /hil/timing/tick and /fc/telemetry; the run's
+    ``cpu_scale`` from its verdict metadata)."""
+    from hil.record import read_metadata, read_topic
+
+    tick = read_topic(log, "/hil/timing/tick")
+    tm = read_topic(log, "/fc/telemetry")
+    telemetry = None
+    for key in ("compute_last_us", "compute_us", "loop_compute_us"):
+        if key in tm and tm[key].size:
+            telemetry = tm[key]
+            break
+    try:
+        cpu_scale = float(read_metadata(log).get("verdict", {}).get("cpu_scale", 1.0))
+    except ValueError:
+        cpu_scale = 1.0
+    cpu = tick.get("fc_cpu_us") if tick else None
+    source = "cpu" if cpu is not None and np.any(np.asarray(cpu) >= 0) else "telemetry"
+    compute = compute_samples_us(cpu, telemetry, cpu_scale)
+    if not tick or "latency_us" not in tick:
+        return analyze_arrays(np.zeros(0), np.zeros(0), compute_us=compute, budget_us=budget_us, compute_source=source)
+    return analyze_arrays(tick["latency_us"], tick["esc_arrival_host_ns"], compute_us=compute, budget_us=budget_us,
+                          lateness_us=tick.get("lateness_us"), compute_source=source)
+
+
+def plot_latency(log: Path, png: Path, budget_us: float = NOMINAL_PERIOD_US) -> Path | None:
+    """Latency over time and its histogram, with the budget marked; None if no timing data."""
+    from hil.record import read_topic
+
+    tick = read_topic(log, "/hil/timing/tick")
+    if not tick or "latency_us" not in tick or tick["latency_us"].size == 0:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    lat = tick["latency_us"].astype(float)
+    t = (tick["log_time_ns"] - tick["log_time_ns"][0]) / 1e9
+    ok = lat >= 0
+    arrivals = tick["esc_arrival_host_ns"].astype(np.int64)
+    arrivals = arrivals[arrivals > 0]
+    period = np.diff(arrivals) / 1e3
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4))
+    axes[0].plot(t[ok], lat[ok], ".", ms=1)
+    axes[0].axhline(budget_us, color="r", ls="--", label=f"budget {budget_us:g} us")
+    axes[0].set_xlabel("sim time [s]")
+    axes[0].set_ylabel("IMU -> ESC latency [us]")
+    axes[0].legend()
+    axes[1].hist(lat[ok], bins=100, log=True)
+    axes[1].axvline(budget_us, color="r", ls="--")
+    axes[1].set_xlabel("latency [us]")
+    axes[1].set_ylabel("samples")
+    if period.size:
+        axes[2].hist(period, bins=100, log=True)
+        axes[2].axvline(NOMINAL_PERIOD_US, color="g", ls="--", label="2.5 ms")
+        axes[2].legend()
+    axes[2].set_xlabel("ESC command period [us] (host clock)")
+    for ax in axes:
+        ax.grid(True)
+    fig.tight_layout()
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
+    return png
