@@ -15,6 +15,7 @@ import sys
 import types
 import warnings
 from collections.abc import Sequence
+from pathlib import Path
 
 #: old module path -> new module path
 MOVED: dict[str, str] = {
@@ -55,6 +56,26 @@ MOVED: dict[str, str] = {
     "hil.skeleton": "hil.host.skeleton",
 }
 
+_IMPORTLIB_DIR = str(Path(importlib.__file__).parent)
+
+
+def _importer_stacklevel() -> int:
+    """The ``stacklevel`` that points the warning at the line that imported the old path: past
+    this module and ``importlib``'s own frames (``import_module``). ``warnings`` itself skips
+    the import system's bootstrap frames and does not count them."""
+    level, frame = 1, sys._getframe(2)  # 1: exec_module, the caller of warnings.warn
+    while frame is not None:
+        name = frame.f_code.co_filename
+        if "importlib" in name and "_bootstrap" in name:
+            pass  # not counted by warnings
+        elif name.startswith(_IMPORTLIB_DIR):
+            level += 1
+        else:
+            return level + 1
+        frame = frame.f_back  # type: ignore[assignment]
+    return level
+
+
 class _MovedLoader(importlib.abc.Loader):
     def __init__(self, new: str) -> None:
         self.new = new
@@ -65,8 +86,7 @@ class _MovedLoader(importlib.abc.Loader):
     def exec_module(self, module: types.ModuleType) -> None:
         warnings.warn(f"{module.__name__} moved to {self.new}; import it from there "
                       "(docs/architecture.md)", DeprecationWarning,
-                      # 2: the importing line; warnings skips the import machinery's frames
-                      stacklevel=2)
+                      stacklevel=_importer_stacklevel())
         # the import system returns whatever sys.modules holds under the name after this
         sys.modules[module.__name__] = importlib.import_module(self.new)
 

@@ -35,7 +35,7 @@ import numpy as np
 from hil.frozen import by_fields
 
 if TYPE_CHECKING:
-    from hil.flight.devices import LatencySample
+    from hil.flight.tick import LatencySample
 
 NOMINAL_PERIOD_US = 2500.0
 #: a realtime tick that starts this late counts as late (the run's late_ticks and hil timing)

@@ -18,12 +18,18 @@ with an attached port is realtime only (:func:`refuse_lockstep`).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, Protocol
 
+from emulators.base import DeviceEvent
+from emulators.buspirate.device import BusPirateUartRate
+from emulators.xsens.events import BaudChanged
 from hil.config import ConfigError, check_keys, validate
+
+if TYPE_CHECKING:
+    from hil.transport.serialport import SerialPort
 
 #: every port a rig can attach (hil run uses all but adc-spidriver)
 ATTACHABLE_PORTS = ("imu", "adc", "adc-spidriver", "rc", "esc", "telemetry", "ground")
@@ -118,19 +124,25 @@ def open_attached(attachments: Mapping[str, PortAttachment], baud_of: Any) -> di
 
 
 #: device events after which the device's own UART runs at the event's ``baud_bps``
-RATE_EVENTS = frozenset({"BaudChanged", "BusPirateUartRate"})
+RATE_EVENTS = (BaudChanged, BusPirateUartRate)
 
 
-def follow_device_rates(devices: Any, attached: Mapping[str, Any]) -> None:
+class EventSource(Protocol):
+    """What hands out device events: ``hil.flight.devices.DeviceSet`` (port name, event)."""
+
+    event_sinks: list[Callable[[str, DeviceEvent], None]]
+
+
+def follow_device_rates(devices: EventSource, attached: Mapping[str, SerialPort]) -> None:
     """On a real line the bench owns the line settings: when an emulated device switches its
     UART (Bus Pirate ``b`` menu, XSENS SetBaudrate + Reset), switch the attached port too, after
     the bytes already written (the device's confirmation at the old rate)."""
     if not attached:
         return
 
-    def sink(port: str, event: Any) -> None:
-        if port in attached and type(event).__name__ in RATE_EVENTS:
-            attached[port].set_baud(int(event.baud_bps))
+    def sink(port: str, event: DeviceEvent) -> None:
+        if port in attached and isinstance(event, RATE_EVENTS):
+            attached[port].set_baud(event.baud_bps)
 
     devices.event_sinks.append(sink)
 

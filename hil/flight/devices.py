@@ -11,7 +11,6 @@ within the tick).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
@@ -20,23 +19,23 @@ from emulators.analog.frontend import AnalogFrontEnd
 from emulators.base import ByteDevice, DeviceEvent
 from emulators.buspirate.device import BusPirate
 from emulators.esc.esc import Esc
-from emulators.maestro.device import Maestro
+from emulators.maestro.device import Maestro, TargetsSet
 from emulators.mcp3204.device import Mcp3204
 from emulators.rc.capture import CaptureFrontEnd
 from emulators.rc.ppm import PpmGenerator, Sticks
 from emulators.rc.sbus import SbusConverter
 from emulators.xbee.link import RadioLink
 from emulators.xbee.module import XBeeModule
+from emulators.xsens.defs import MID
 from emulators.xsens.device import MtiDevice
+from emulators.xsens.events import CommandHandled, SampleSent
 from hil import clock
-from hil.frozen import by_fields
 from hil.plant.plant import Plant
 from hil.plant.records import Quat, Vec3
 from hil.config.rig import Rig
 from hil.analysis.timing import LatencyStats
+from hil.flight.tick import LatencySample
 from hil.transport.base import LineSettings, Port
-
-GOTO_MEASUREMENT = 0x10  #: Xbus MID
 
 #: Names of the RNG streams, in spawn order (adding one at the end keeps the others).
 RNG_STREAMS = ("plant", "imu", "analog", "ppm", "esc", "xbee_vehicle", "xbee_ground", "link", "faults", "vibration")
@@ -52,31 +51,6 @@ class WireFilter(Protocol):
     def tx(self, data: bytes, t_ns: int) -> bytes: ...
     def rx(self, data: bytes, t_ns: int) -> bytes: ...
     def poll(self, t_ns: int) -> bytes: ...
-
-
-@dataclass(frozen=True, init=False)
-class LatencySample:
-    """How one IMU sample was answered. Host ns from the bench's monotonic clock; sim ns."""
-
-    t_ns: int  #: the sample's sim time
-    t_emit_host_ns: int  #: when the bench wrote it
-    t_arrival_host_ns: int | None  #: when its ESC command arrived (None: no command, a miss)
-    t_arrival_ns: int | None = None  #: virtual time: the command's sim time
-    fc_cpu_ns: int | None = None  #: virtual time: the flight code's CPU time for it (host ns)
-    lateness_ns: int | None = None  #: realtime: how late the tick that emitted it started (host ns)
-
-    def __init__(self, t_ns: int, t_emit_host_ns: int, t_arrival_host_ns: int | None, t_arrival_ns: int | None = None,
-                 fc_cpu_ns: int | None = None, lateness_ns: int | None = None) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
-        object.__setattr__(self, "t_ns", t_ns)
-        object.__setattr__(self, "t_emit_host_ns", t_emit_host_ns)
-        object.__setattr__(self, "t_arrival_host_ns", t_arrival_host_ns)
-        object.__setattr__(self, "t_arrival_ns", t_arrival_ns)
-        object.__setattr__(self, "fc_cpu_ns", fc_cpu_ns)
-        object.__setattr__(self, "lateness_ns", lateness_ns)
-
-    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
 
 
 def spawn_rngs(seed: int) -> dict[str, np.random.Generator]:
@@ -188,7 +162,7 @@ class DeviceSet:
                 events += self.mcp.take_events()
             if events:
                 self._dispatch(name, events)
-                if is_esc and any(type(e).__name__ == "TargetsSet" for e in events):
+                if is_esc and any(isinstance(e, TargetsSet) for e in events):
                     self.on_esc_command(clock.monotonic_ns(), t_ns)
 
         return on_data
@@ -203,7 +177,7 @@ class DeviceSet:
     def _dispatch(self, port: str, events: list[DeviceEvent]) -> None:
         if port == "imu" and not self.imu_started_by_host:
             for ev in events:
-                if type(ev).__name__ == "CommandHandled" and getattr(ev, "mid", None) == GOTO_MEASUREMENT:
+                if isinstance(ev, CommandHandled) and ev.mid == MID.GOTO_MEASUREMENT:
                     self.imu_started_by_host = True
         for sink in self.event_sinks:
             for ev in events:
@@ -361,7 +335,7 @@ class DeviceSet:
         self.imu.advance(t_ns)
         out = self.imu.take_output()
         events = self.imu.take_events()
-        emitted = any(type(e).__name__ == "SampleSent" for e in events)
+        emitted = any(isinstance(e, SampleSent) for e in events)
         if out:
             port = self.ports.get("imu")
             if emitted and port is not None:

@@ -9,16 +9,26 @@ criteria's feed, hil/analysis/trace_stream.py, and the whole-run trace when the 
 
 from __future__ import annotations
 
-import dataclasses
-import enum
-import math
 import re
 from collections.abc import Callable, Mapping
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
 from emulators.base import DeviceEvent
+from emulators.buspirate.device import BusPirateSpi
+from emulators.maestro.device import TargetsSet
+from emulators.mcp3204.device import Mcp3204Conversion
+from emulators.xsens.events import CommandHandled, SampleSent
 from hil import clock
+from hil.flight.messages import (
+    RAD2DEG,
+    adc_payload,
+    esc_output,
+    jsonable,
+    pose_payload,
+    tf_payload,
+    truth_payload,
+)
 from hil.flight.telemetry import TelemetryDecoder
 from hil.transport.base import WireRecord
 
@@ -32,32 +42,13 @@ if TYPE_CHECKING:
     from hil.analysis.trace_stream import TraceSink
     from hil.transport.base import Port
 
-RAD2DEG = 180.0 / math.pi
 #: events whose whole content is already on the wire tap (raw bytes per port)
-_WIRE_ONLY_EVENTS = frozenset({"BusPirateSpi", "CommandHandled", "SpiTransfer"})
+_WIRE_ONLY_EVENTS = (BusPirateSpi, CommandHandled)
 _LOGFMT_LEVEL = re.compile(r"\blevel=(\w+)")
 #: a telemetry frame's own sample time is trusted when at most this much before its arrival
 #: (the trace stream's delay line must be longer: hil/analysis/trace_stream.py)
 STAMP_MAX_AGE_NS = 1_000_000_000
 _FOXGLOVE_LEVEL = {"DEBUG": 1, "INFO": 2, "WARN": 3, "WARNING": 3, "ERROR": 4, "FATAL": 5, "CRITICAL": 5}
-
-
-def _jsonable(value: Any) -> Any:
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: _jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
-    if isinstance(value, enum.Enum):
-        return value.name
-    if isinstance(value, (tuple, list)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, bytes):
-        return value.hex()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if hasattr(value, "item"):  # numpy scalar
-        return value.item()
-    return value
 
 
 class RunLogger:
@@ -88,7 +79,7 @@ class RunLogger:
         self.fc_lines = 0
         self.telemetry = TelemetryDecoder()
         self._last_cmd_us: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
-        self._adc: list[Any] = []  # this tick's Mcp3204Conversion events
+        self._adc: list[Mcp3204Conversion] = []  # this tick's conversions
         trace.define(
             "truth",
             {
@@ -139,10 +130,9 @@ class RunLogger:
     def on_event(self, port: str, ev: DeviceEvent) -> None:
         # Hot event types (several per tick) are turned into payloads by hand; the generic
         # dataclass walk is for the rare ones.
-        name = type(ev).__name__
-        if name == "TargetsSet":
-            targets = ev.targets_qus  # type: ignore[attr-defined]
-            first = ev.first_channel  # type: ignore[attr-defined]
+        if isinstance(ev, TargetsSet):
+            targets = ev.targets_qus
+            first = ev.first_channel
             cmd = list(self._last_cmd_us)
             for i, q in enumerate(targets):
                 if 0 <= first + i < 4:
@@ -152,29 +142,30 @@ class RunLogger:
                 self.out.log("/hil/esc/command", ev.t_ns, {"t_ns": ev.t_ns, "targets_us": cmd}, clock.monotonic_ns())
             return
         rec = self.out
-        if rec is None or name in _WIRE_ONLY_EVENTS:
+        if rec is None or isinstance(ev, _WIRE_ONLY_EVENTS):
             return
         t_host = clock.monotonic_ns()
-        if name == "SampleSent":
+        if isinstance(ev, SampleSent):
             sample = {
                 "t_ns": ev.t_ns,
-                "packet_counter": ev.packet_counter,  # type: ignore[attr-defined]
-                "sample_time_fine": ev.sample_time_fine,  # type: ignore[attr-defined]
-                "euler_deg": ev.euler_deg,  # type: ignore[attr-defined]
-                "rate_radps": ev.rate_radps,  # type: ignore[attr-defined]
-                "acc_mps2": ev.acc_mps2,  # type: ignore[attr-defined]
-                "nbytes": ev.nbytes,  # type: ignore[attr-defined]
+                "packet_counter": ev.packet_counter,
+                "sample_time_fine": ev.sample_time_fine,
+                "euler_deg": ev.euler_deg,
+                "rate_radps": ev.rate_radps,
+                "acc_mps2": ev.acc_mps2,
+                "nbytes": ev.nbytes,
             }
             # items the configured output does not carry are left out, not null
             rec.log("/hil/imu/sample", ev.t_ns, {k: v for k, v in sample.items() if v is not None}, t_host)
-        elif name == "Mcp3204Conversion":
+        elif isinstance(ev, Mcp3204Conversion):
             # one message per tick holds the tick's conversions (after_tick): a message per
             # conversion cost more in record overhead than the conversion itself
             self._adc.append(ev)
         else:
-            detail = _jsonable(ev)
+            detail = jsonable(ev)
             detail.pop("t_ns", None)
-            rec.log("/hil/events", max(ev.t_ns, 0), {"t_ns": ev.t_ns, "kind": f"device.{port}", "name": name, "detail": detail}, t_host)
+            rec.log("/hil/events", max(ev.t_ns, 0),
+                    {"t_ns": ev.t_ns, "kind": f"device.{port}", "name": type(ev).__name__, "detail": detail}, t_host)
 
     def flight_line(self, stream: str, line: str) -> None:
         self.fc_lines += 1
@@ -195,7 +186,7 @@ class RunLogger:
             self.out.log(
                 "/hil/events",
                 max(t_ns, 0),
-                {"t_ns": t_ns, "kind": kind, "name": name, "detail": _jsonable(detail)},
+                {"t_ns": t_ns, "kind": kind, "name": name, "detail": jsonable(detail)},
                 clock.monotonic_ns(),
             )
 
@@ -255,14 +246,14 @@ class RunLogger:
         if rec is not None:
             # PlantState is immutable: its payloads are built on the writer thread
             if k % self.truth_divider == 0:
-                rec.log("/sim/truth", t_ns, partial(_truth_payload, t_ns, st), t_host)
-                rec.log("/hil/esc/output", t_ns, partial(_esc_output, t_ns, d.throttle, armed), t_host)
+                rec.log("/sim/truth", t_ns, partial(truth_payload, t_ns, st), t_host)
+                rec.log("/hil/esc/output", t_ns, partial(esc_output, t_ns, d.throttle, armed), t_host)
             if k % self.pose_divider == 0:
                 stamp = divmod(self.run_start_unix_ns + t_ns, 1_000_000_000)
-                rec.log("/tf", t_ns, partial(_tf_payload, stamp, st), t_host)
-                rec.log("/sim/pose", t_ns, partial(_pose_payload, stamp, st), t_host)
+                rec.log("/tf", t_ns, partial(tf_payload, stamp, st), t_host)
+                rec.log("/sim/pose", t_ns, partial(pose_payload, stamp, st), t_host)
             if self._adc:
-                rec.log("/hil/adc/conversion", self._adc[0].t_ns, _adc_payload(self._adc), t_host)
+                rec.log("/hil/adc/conversion", self._adc[0].t_ns, adc_payload(self._adc), t_host)
                 self._adc = []
             if k % self.counters_divider == 0:
                 rec.log("/hil/device/counters", t_ns, {"t_ns": t_ns, "counters": self.counters()}, t_host)
@@ -302,100 +293,9 @@ class RunLogger:
                 "passed": end.value == "completed" and all(c.passed for c in criteria),
                 "message": message,
                 "flight_returncode": -1 if returncode is None else returncode,
-                "criteria": [_jsonable(c) for c in criteria],
-                "timing": _jsonable(timing),
+                "criteria": [jsonable(c) for c in criteria],
+                "timing": jsonable(timing),
             },
             clock.monotonic_ns(),
         )
         self.out.flush()
-
-
-def _truth_payload(t_ns: int, st: Any) -> dict[str, Any]:
-    r, p, y = st.euler_rpy_rad
-    return {
-        "t_ns": t_ns,
-        "p_N_m": list(st.p_N_m),
-        "v_N_mps": list(st.v_N_mps),
-        "q_NB": list(st.q_NB),
-        "euler_deg": {"roll": r * RAD2DEG, "pitch": p * RAD2DEG, "yaw": y * RAD2DEG},
-        "omega_B_radps": list(st.omega_B_radps),
-        "rotor_omega_radps": list(st.rotor_omega_radps),
-        "thrust_N": list(st.thrust_N),
-        "h_m": st.h_m,
-        "battery_V": st.battery_V,
-        "battery_A": st.battery_A,
-        "battery_soc": st.battery_soc,
-        "on_ground": bool(st.on_ground),
-        "wind_N_mps": list(st.wind_N_mps),
-        "mass_kg": st.mass_kg,
-    }
-
-
-def _adc_payload(conversions: list[Any]) -> dict[str, Any]:
-    """``hil.AdcConversions`` of a tick's ``Mcp3204Conversion`` events (in the order answered)."""
-    t0 = conversions[0].t_ns
-    out: dict[str, Any] = {
-        "t_ns": t0,
-        "channel": [c.channel for c in conversions],
-        "code": [c.code for c in conversions],
-        "volts": [c.volts for c in conversions],
-        "single_ended": [c.single_ended for c in conversions],
-        "vref_V": [c.vref_V for c in conversions],
-    }
-    if any(c.t_ns != t0 for c in conversions):
-        out["dt_ns"] = [c.t_ns - t0 for c in conversions]
-    return out
-
-
-def _esc_output(t_ns: int, throttle: tuple[float, ...], armed: tuple[float, ...]) -> dict[str, Any]:
-    return {"t_ns": t_ns, "throttle": list(throttle), "armed": [bool(a) for a in armed]}
-
-
-def _enu_pose(st: Any) -> tuple[dict[str, float], dict[str, float]]:
-    # NED/FRD -> ENU/FLU for Foxglove's 3D panel: x_E = y_N, y_E = x_N, z_E = -z_N;
-    # q_ENU_FLU = q_ENU_NED * q_NB * q_FRD_FLU.
-    x, y, z = st.p_N_m
-    qw, qx, qy, qz = _ned_frd_to_enu_flu(st.q_NB)
-    return {"x": y, "y": x, "z": -z}, {"x": qx, "y": qy, "z": qz, "w": qw}
-
-
-def _tf_payload(stamp: tuple[int, int], st: Any) -> dict[str, Any]:
-    translation, rotation = _enu_pose(st)
-    return {
-        "timestamp": {"sec": stamp[0], "nsec": stamp[1]},
-        "parent_frame_id": "world",
-        "child_frame_id": "base_link",
-        "translation": translation,
-        "rotation": rotation,
-    }
-
-
-def _pose_payload(stamp: tuple[int, int], st: Any) -> dict[str, Any]:
-    translation, rotation = _enu_pose(st)
-    return {
-        "timestamp": {"sec": stamp[0], "nsec": stamp[1]},
-        "frame_id": "world",
-        "pose": {"position": translation, "orientation": rotation},
-    }
-
-
-def _qmul(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float, float]:
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return (
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    )
-
-
-_H = math.sqrt(0.5)
-#: rotation taking NED vectors to ENU (180 deg about the axis (1,1,0)/sqrt2)
-Q_ENU_NED = (0.0, _H, _H, 0.0)
-#: FLU body vectors to FRD (180 deg about x)
-Q_FRD_FLU = (0.0, 1.0, 0.0, 0.0)
-
-
-def _ned_frd_to_enu_flu(q_NB: tuple[float, ...]) -> tuple[float, float, float, float]:
-    return _qmul(_qmul(Q_ENU_NED, q_NB), Q_FRD_FLU)

@@ -27,6 +27,77 @@ def _modules(package: str) -> list[Path]:
     return sorted((ROOT / package).rglob("*.py"))
 
 
+def _runtime_imports(path: Path) -> list[tuple[int, str]]:
+    """Full module names imported when the module runs: ``if TYPE_CHECKING:`` blocks (types
+    only, never executed) are left out; ``from hil import x`` counts as ``hil.x``."""
+    found: list[tuple[int, str]] = []
+
+    def visit(node: ast.AST) -> None:
+        if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
+            for child in node.orelse:
+                visit(child)
+            return
+        if isinstance(node, ast.Import):
+            found.extend((node.lineno, alias.name) for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            if node.module in {"hil", "hil.config"}:
+                found.extend((node.lineno, f"{node.module}.{alias.name}") for alias in node.names)
+            found.append((node.lineno, node.module))
+        for child in ast.iter_child_nodes(node):
+            visit(child)
+
+    visit(ast.parse(path.read_text(), filename=str(path)))
+    return found
+
+
+def _within(module: str, packages: set[str]) -> bool:
+    return any(module == p or module.startswith(p + ".") for p in packages)
+
+
+#: the packages of hil/ that do one job each (docs/architecture.md), and what each may not
+#: import when it runs. The layers beneath them (plant, faults, record, transport, vtime,
+#: config) import none of them.
+JOBS = {"hil.flight", "hil.analysis", "hil.fleet", "hil.host", "hil.testing", "hil.cli", "hil.pytest_plugin"}
+FORBIDDEN = {
+    # beneath the jobs
+    "hil/plant": JOBS, "hil/faults": JOBS, "hil/record": JOBS, "hil/transport": JOBS, "hil/vtime": JOBS,
+    "hil/config": JOBS,
+    # what a run or a log says: read-only, never starts a flight
+    "hil/analysis": JOBS - {"hil.analysis"},
+    # one flight knows nothing of many flights, of users' tests or of the command line
+    "hil/flight": {"hil.fleet", "hil.testing", "hil.cli", "hil.pytest_plugin"},
+    "hil/fleet": {"hil.testing", "hil.cli", "hil.pytest_plugin"},
+    # the host's figures; only hil perf (hil/host/perf.py) flies
+    "hil/host": JOBS - {"hil.host"},
+    "hil/testing": {"hil.fleet", "hil.cli"},
+}
+
+
+@pytest.mark.parametrize("path", [p for package in FORBIDDEN for p in _modules(package)],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_hil_packages_keep_to_their_jobs(path: Path) -> None:
+    package = next(p for p in FORBIDDEN if path.is_relative_to(ROOT / p))
+    forbidden = FORBIDDEN[package]
+    if path.relative_to(ROOT).as_posix() == "hil/host/perf.py":
+        forbidden = forbidden - {"hil.flight"}
+    bad = [(line, mod) for line, mod in _runtime_imports(path) if _within(mod, forbidden)]
+    assert not bad, f"{path}: {package} may not import {sorted(forbidden)} (docs/architecture.md): {bad}"
+
+
+@pytest.mark.parametrize("path", _modules("hil") + _modules("tests") + _modules("examples"),
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_nothing_of_ours_imports_a_moved_path(path: Path) -> None:
+    from hil._moved import MOVED
+
+    if path.name == "test_moved_paths.py":
+        return
+    bad = [(line, mod) for line, mod in _runtime_imports(path) if mod in MOVED]
+    # the types-only imports too: they are read by mypy and by people
+    bad += [(node.lineno, node.module) for node in ast.walk(ast.parse(path.read_text()))
+            if isinstance(node, ast.ImportFrom) and node.module in MOVED]
+    assert not bad, f"{path}: import from the new path (hil/_moved.py): {bad}"
+
+
 @pytest.mark.parametrize("path", _modules("flightcode"), ids=lambda p: str(p.relative_to(ROOT)))
 def test_flightcode_imports_only_its_allowed_set(path: Path) -> None:
     allowed = STDLIB | {"numpy", "filterpy", "control", "serial", "scipy", "flightcode"}

@@ -18,7 +18,7 @@ from hil.analysis.criteria import CriterionResult
 from hil.record import Recorder
 from hil.record.reader import iter_messages
 from hil.record.validate import validate
-from hil.flight.runlog import _jsonable
+from hil.flight.messages import jsonable as _jsonable
 from tests.unit.record.support import RUN_START_NS, strict_json
 
 
