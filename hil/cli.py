@@ -36,12 +36,6 @@ err_console = Console(stderr=True)
 _MODES = ("lockstep", "realtime")  #: hil.flight.tickloop.Mode values (not imported here: start-up time)
 
 
-def parse_attach_flags(flags: list[str]) -> dict[str, str]:
-    from hil.config.attach import parse_attach_flags as parse
-
-    return parse(flags)
-
-
 def _fail(message: str, code: int = 2) -> None:
     # escaped: messages quote file syntax such as "[[faults]]", which is not markup
     err_console.print(f"[bold red]error:[/] {escape(message)}", soft_wrap=True)
@@ -77,7 +71,6 @@ def run(
     if mode not in _MODES:
         _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
     from hil.config import ConfigError
-    from hil.flight.progress import PlainProgress
     from hil.config.rig import load_rig
     from hil.config.scenario import load_scenario
     from hil.flight.scenario_runner import ScenarioRunner
@@ -91,7 +84,7 @@ def run(
         _fail(str(exc))
     import asyncio
 
-    from hil.config.attach import refuse_lockstep, resolve_attachments
+    from hil.config.attach import parse_attach_flags, refuse_lockstep, resolve_attachments
     from hil.flight.tickloop import Mode
     from hil.flight.run import PORTS, run_flight_async
     from hil.analysis.summary import print_summary
@@ -103,49 +96,13 @@ def run(
     except ConfigError as exc:
         _fail(str(exc))
 
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from hil.flight.console_progress import ConsoleProgress
 
-    progress = Progress(
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        TextColumn("{task.fields[sim]}"),
-        TextColumn("RTF {task.fields[rtf]}"),
-        TextColumn("{task.fields[phase]}"),
-        TimeElapsedColumn(),
-        console=console,
-        disable=quiet or not console.is_terminal,
-        transient=True,
-    )
-    # Not a terminal (CI log, pipe): plain progress lines instead of the bar.
-    plain: PlainProgress | None = None
+    # a bar on a terminal, plain lines on a pipe or CI log
+    progress = ConsoleProgress(console, f"{rig_obj.name}/{scenario_obj.name}", quiet=quiet)
 
     async def main() -> object:
-        nonlocal plain
-        label = f"{rig_obj.name}/{scenario_obj.name}"
-        task = progress.add_task(label, total=1.0, sim="", rtf="-", phase="boot")
-        start = {"wall": 0}
-        if not quiet and not console.is_terminal:
-            plain = PlainProgress(
-                label,
-                lambda line: console.print(line, markup=False, highlight=False, soft_wrap=True),
-                lambda: (clock.monotonic_ns() - start["wall"]) / 1e9 if start["wall"] else 0.0,
-            )
-
-        def on_progress(sim_s: float, total_s: float, phase: str) -> None:
-            now = clock.monotonic_ns()
-            if not start["wall"]:
-                start["wall"] = now
-            wall = max((now - start["wall"]) / 1e9, 1e-6)
-            progress.update(
-                task,
-                completed=sim_s / total_s if total_s else 1.0,
-                sim=f"{sim_s:6.2f}/{total_s:.1f} s",
-                rtf=f"{sim_s / wall:5.1f}x" if sim_s > 0.5 else "-",
-                phase=phase,
-            )
-            if plain is not None:
-                plain(sim_s, total_s, phase)
-
+        progress.begin()
         current = asyncio.current_task()
         loop = asyncio.get_running_loop()
         assert current is not None
@@ -160,7 +117,7 @@ def run(
                 duration_s=duration,
                 out_dir=out,
                 record=not no_record,
-                progress=on_progress,
+                progress=progress,
                 scenario_source=source,
                 virtual_time=False if wall_clock else None,
                 stress_cpu=stress_cpu,
@@ -173,7 +130,7 @@ def run(
             loop.remove_signal_handler(signal.SIGTERM)
 
     try:
-        with progress:
+        with progress.bar:
             result = asyncio.run(main())
     except ConfigError as exc:  # refused before anything was created (e.g. a fault after the end)
         _fail(str(exc))
@@ -202,6 +159,7 @@ def devices(
     import asyncio
 
     from hil.config import ConfigError
+    from hil.config.attach import parse_attach_flags
     from hil.flight.devices_live import serve_devices
     from hil.config.rig import load_rig
     from hil.config.scenario import load_scenario
@@ -226,12 +184,12 @@ def recover(
     Exit status: 0 the file was written (it says how many messages were kept); 2 no such file.
     """
     from hil.record import recover as do_recover
+    from hil.record import recovered_path
 
     if not log.exists():
         _fail(f"{log}: no such file")
     if out is None:
-        name = log.name
-        out = log.with_name(name[: -len(".part")]) if name.endswith(".part") else log.with_suffix(".recovered.mcap")
+        out = recovered_path(log)
     n = do_recover(log, out)
     console.print(f"recovered {n} messages -> {out}")
 
@@ -266,29 +224,12 @@ def timing(
     such file.
     """
     from hil.analysis.timing import analyze_log, plot_latency
+    from hil.analysis.timing_table import print_timing
 
     if not log.exists():
         _fail(f"{log}: no such file")
     rep = analyze_log(log, budget_us)
-    table = Table(title=f"loop timing: {log.name}")
-    for col in ("figure", "n", "p50", "p99", "p99.9", "max", "mean"):
-        table.add_column(col, justify="right" if col != "figure" else "left")
-    for name, st in (
-        ("response latency (us): IMU emitted -> ESC command", rep.latency_us),
-        ("ESC command period (us)", rep.period_us),
-        ("period jitter |T - 2500| (us)", rep.jitter_us),
-        (("flight code's CPU per sample (us, x cpu_scale)" if rep.compute_source == "cpu"
-          else "flight code's own compute (us, telemetry)"), rep.compute_us),
-        *([("tick lateness (us): start - wall deadline", rep.lateness_us)] if rep.lateness_us is not None else []),
-    ):
-        table.add_row(name, str(st.n), *(f"{v:.1f}" for v in (st.p50, st.p99, st.p999, st.max, st.mean)))
-    console.print(table)
-    console.print(
-        f"samples {rep.samples}; over the {rep.budget_us:g} us budget: {rep.misses}; "
-        f"no ESC command at all: {rep.no_command}"
-    )
-    if rep.realtime is not None:
-        console.print(rep.realtime.text, style=None if rep.realtime.held else "bold red", highlight=False)
+    print_timing(console, rep, log.name)
     out = plot_latency(log, png or log.with_name(log.name.removesuffix(".mcap") + "_timing.png"), budget_us)
     if out is not None:
         console.print(f"histogram: {out}")
@@ -334,8 +275,9 @@ def replay(
     import asyncio
 
     from hil.record import TornRecordingError
-    from hil.fleet.replay import ReplayError, verify
     from hil.fleet.replay import replay as do_replay
+    from hil.fleet.replay_error import ReplayError
+    from hil.fleet.verify import verify
 
     if not log.exists():
         _fail(f"{log}: no such file")
@@ -365,7 +307,8 @@ def campaign(
     Exit status: 0 every run passed; 1 a run failed; 2 bad campaign file or option;
     130 interrupted (Ctrl-C; the summary covers the runs that finished).
     """
-    from hil.fleet.campaign import KeepLogs, load_campaign, run_campaign
+    from hil.fleet.campaign import run_campaign
+    from hil.fleet.campaign_file import KeepLogs, load_campaign
     from hil.config import ConfigError
 
     try:

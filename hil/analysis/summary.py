@@ -10,7 +10,7 @@ from rich.table import Table
 
 if TYPE_CHECKING:
     from hil.config.rig import Rig
-    from hil.flight.run import RunResult
+    from hil.flight.run_result import RunResult
     from hil.config.scenario import Scenario
 
 

@@ -6,6 +6,10 @@ symlinks, the plant and every emulator, writes the flight code's config pointing
 symlinks, starts the flight code, boots, runs the ticks, and always - on success,
 criteria failure, flight-code crash, boot failure, Ctrl-C or a bench error - stops the
 flight code, closes the ports and finalizes the MCAP.
+
+What a run produced and its timing figures are in :mod:`hil.flight.run_result`; the files
+it writes around the flight (the flight code's config, the log's name and metadata) in
+:mod:`hil.flight.run_files`. Their public names are importable from here too.
 """
 
 from __future__ import annotations
@@ -13,43 +17,37 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import gc
-import json
-import math
 import shutil
 import sys
 import traceback
 from collections.abc import Awaitable, Callable, Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
-import numpy as np
-import tomli_w
-
-from hil import __version__, clock, native
-from hil.config.attach import follow_device_rates, open_attached, refuse_lockstep, resolve_attachments
-from hil.flight.tickloop import BootError, Clock, EndReason, Mode, TickLoop
-from hil.config import ConfigError, load_toml
-from hil.analysis.criteria import CriterionResult
+from hil import clock, native
 from hil.analysis.criteria_stream import CriteriaStream
-from hil.flight.devices import DeviceSet
-from hil.flight.process import FlightProcess, expand_command
-from hil.record.process import ProcessRecorder
-from hil.config.rig import Rig, load_rig
-from hil.host import cpulatency, rtsched
-from hil.host.cpulatency import CpuLatency, LatencyMode
-from hil.host.cpuuse import ChildCpu
-from hil.host.rtsched import RtPolicy, RtScheduling
-from hil.flight.rundir import make_run_dir
-from hil.flight.runlog import STAMP_MAX_AGE_NS, RunLogger
-from hil.config.scenario import Scenario, apply_to_rig, load_scenario
-from hil.flight.scenario_runner import ScenarioRunner
-from hil.flight.stress import CpuHog
-from hil.analysis.signal_stream import Held
-from hil.host.steal import StealMeter, realtime_note
-from hil.analysis.timing import REALTIME_MAX_LATE_US, StreamingStats, realtime_held, scaled_compute_us
 from hil.analysis.trace import Trace
 from hil.analysis.trace_stream import TraceSink, TraceStream, TraceTee
+from hil.config import ConfigError
+from hil.config.attach import follow_device_rates, open_attached, refuse_lockstep, resolve_attachments
+from hil.config.rig import Rig, load_rig
+from hil.config.scenario import Scenario, apply_to_rig, load_scenario
+from hil.flight.devices import DeviceSet
+from hil.flight.process import FlightProcess, expand_command
+from hil.flight.run_files import deep_merge, default_log_path, run_metadata, verdict_metadata, write_flight_config
+from hil.flight.run_result import RunResult, cores_used, held_stats, realtime_criterion, timing_summary
+from hil.flight.rundir import make_run_dir
+from hil.flight.runlog import STAMP_MAX_AGE_NS, RunLogger
+from hil.flight.scenario_runner import ScenarioRunner
+from hil.flight.stress import CpuHog
+from hil.flight.tickloop import BootError, Clock, EndReason, Mode, TickLoop
+from hil.host import cpulatency, rtsched
+from hil.host.cpulatency import LatencyMode
+from hil.host.cpuuse import ChildCpu
+from hil.host.rtsched import RtPolicy
+# looked up here at run time: tests put a fake host in its place (tests/system/test_host_figures.py)
+from hil.host.steal import StealMeter, realtime_note
+from hil.record.process import ProcessRecorder
 from hil.transport.base import Port
 from hil.transport.pty import PtyPort
 from hil.vtime.preload import Fallback
@@ -58,86 +56,6 @@ from hil.vtime.session import ShimUsage, VirtualTime, describe_stall
 PORTS = ("imu", "adc", "rc", "esc", "telemetry", "ground")
 SWITCH_INTERVAL_S = 0.0005
 _T = TypeVar("_T")
-
-
-@dataclass
-class RunResult:
-    """What a run produced; ``passed`` is the verdict used for the exit status."""
-
-    log_path: Path | None
-    end_reason: EndReason
-    criteria: list[CriterionResult]
-    flight_returncode: int | None
-    flight_stderr_tail: list[str]
-    timing: dict[str, float]
-    counters: dict[str, dict[str, int]]
-    message: str = ""
-    #: the whole-run trace, when the run was asked to keep it (``keep_trace``)
-    trace: Trace | None = None
-    recorded: dict[str, int] = field(default_factory=dict)
-    dropped: int = 0
-    seed: int = 0
-    sim_s: float = 0.0
-    #: the clock the flight code ran on; why it was not virtual in a lockstep run
-    clock: Clock = Clock.WALL
-    clock_note: str = ""
-    shim: ShimUsage | None = None
-    #: things the user must know about this run (fallbacks, uncovered calls, stalls)
-    notes: list[str] = field(default_factory=list)
-    #: realtime: the scheduling policy the tick loop and the flight code ran on (hil/host/rtsched.py)
-    rt_scheduling: RtScheduling | None = None
-    #: the CPU latency request the run held, or why not (hil/host/cpulatency.py)
-    cpu_latency: CpuLatency | None = None
-
-    @property
-    def passed(self) -> bool:
-        return self.end_reason is EndReason.COMPLETED and all(c.passed for c in self.criteria)
-
-
-def deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
-    out = dict(base)
-    for key, value in over.items():
-        if isinstance(value, dict) and isinstance(out.get(key), dict):
-            out[key] = deep_merge(out[key], value)
-        else:
-            out[key] = value
-    return out
-
-
-def write_flight_config(rig: Rig, scenario: Scenario, ports: Mapping[str, Port], run_dir: Path) -> Path:
-    """The flight code's own config, from the rig's template, pointing at the symlinks."""
-    template_path = rig.flight_config_path
-    config = load_toml(template_path)
-    config = deep_merge(config, rig.flight.overrides)
-    config = deep_merge(config, scenario.flight)
-    port_table = dict(config.get("ports", {}))
-    for name in ("imu", "adc", "rc", "esc", "telemetry"):
-        entry = dict(port_table.get(name, {}))
-        client_path = ports[name].client_path  # None: a real line whose far end the template names
-        if client_path is not None:
-            entry["path"] = client_path
-        # A template that names a baud keeps it (a wrong one is a test of the flight code);
-        # otherwise the device's own line rate from the rig.
-        entry.setdefault("baud", rig.device_baud(name))
-        port_table[name] = entry
-    config["ports"] = port_table
-    path = run_dir / "flight.toml"
-    path.write_text(tomli_w.dumps(config))
-    return path
-
-
-def _percentiles(prefix: str, values: StreamingStats | np.ndarray, scale: float = 1.0) -> dict[str, float]:
-    """p50/p99/max of ``values`` times ``scale`` (streamed stats or an array)."""
-    if len(values) == 0:
-        return {}
-    if isinstance(values, StreamingStats):
-        return {f"{prefix}_p50_us": values.percentile(50) * scale, f"{prefix}_p99_us": values.percentile(99) * scale,
-                f"{prefix}_max_us": values.max * scale}
-    return {
-        f"{prefix}_p50_us": float(np.percentile(values, 50)) * scale,
-        f"{prefix}_p99_us": float(np.percentile(values, 99)) * scale,
-        f"{prefix}_max_us": float(values.max()) * scale,
-    }
 
 
 async def _despite_cancel(aw: Awaitable[_T]) -> _T:
@@ -154,99 +72,6 @@ async def _despite_cancel(aw: Awaitable[_T]) -> _T:
             task = asyncio.current_task()
             if task is not None:
                 task.uncancel()
-
-
-def _timing_summary(loop: TickLoop, tick_ns: int, telemetry_compute_us: StreamingStats | None = None,
-                    cpu_scale: float = 1.0) -> dict[str, float]:
-    """The run's timing figures. ``latency_*``, ``period_*`` and ``fc_compute_*`` are on the
-    flight code's clock: sim time with virtual time (deterministic, what budgets judge), the
-    host clock otherwise. ``host_latency_*`` and ``bench_cost_*`` are host figures always.
-    ``telemetry_compute_us``: the flight code's own compute figure held on the tick grid
-    (streamed), for runs without the per-sample CPU measurement."""
-    st = loop.stats
-    wall_s = max((st.wall_end_ns - st.wall_start_ns) / 1e9, 1e-9)
-    sim_s = st.ticks * tick_ns / 1e9
-    out: dict[str, float] = {
-        "ticks": float(st.ticks),
-        "sim_s": sim_s,
-        "wall_s": wall_s,
-        "rtf": sim_s / wall_s,
-        "barrier_misses": float(st.barrier_misses),
-        "late_ticks": float(st.late_ticks),
-        "esc_commands": float(st.esc_commands),
-    }
-    lat = loop.devices.latency_stats  # streamed: every sample's figures, bounded memory
-    virtual = st.clock is Clock.VIRTUAL
-    out |= _percentiles("latency", st.latencies_ns, 1e-3)
-    out |= _percentiles("host_latency", lat.host_latency_ns, 1e-3)
-    if st.tick_cost_ns:
-        cost = st.tick_cost_ns
-        out |= {"bench_cost_p50_us": cost.percentile(50) / 1e3, "bench_cost_p99_us": cost.percentile(99) / 1e3}
-    if st.clock is Clock.REALTIME:
-        out["rt_no_command"] = float(st.no_command)
-    if st.clock is not Clock.VIRTUAL:
-        out["late_commands"] = float(st.late_commands)
-    if st.ticks:
-        out["bench_cpu_per_tick_us"] = st.cpu_ns / st.ticks / 1e3
-    arrivals = lat.sim_period if virtual else lat.host_period
-    if len(arrivals.period) > 1:
-        out |= {"period_p50_us": arrivals.period.percentile(50) / 1e3,
-                "period_jitter_p99_us": arrivals.jitter.percentile(99) / 1e3}
-    if virtual:
-        out["boot_sim_s"] = st.boot_sim_ns / 1e9
-    # one rule with `hil timing` (hil.analysis.timing.compute_samples_us): the per-sample CPU
-    # measurement when there is one, on the same values; else the flight code's own figure
-    cpu = scaled_compute_us(np.frombuffer(st.fc_cpu_ns, dtype=np.int64) / 1e3, cpu_scale) if virtual else np.zeros(0)
-    out |= _percentiles("fc_compute", cpu if cpu.size or telemetry_compute_us is None else telemetry_compute_us)
-    if st.lateness_ns:
-        out |= _percentiles("lateness", st.lateness_ns, 1e-3)
-    return out
-
-
-def _cores_used(loop: TickLoop, fc_cpu_ns: int | None, rec_cpu_ns: int | None, *, recorded: bool) -> dict[str, float]:
-    """The flight code's and the recorder's CPU per tick over the tick loop, and the cores
-    the run kept busy: bench, flight code and recorder CPU over the wall time (hil/host/cpuuse.py).
-    ``cores_used`` only when every process of the run was measured."""
-    st = loop.stats
-    out: dict[str, float] = {}
-    if not st.ticks:
-        return out
-    if fc_cpu_ns is not None:
-        out["fc_cpu_per_tick_us"] = fc_cpu_ns / st.ticks / 1e3
-    if rec_cpu_ns is not None:
-        out["recorder_cpu_per_tick_us"] = rec_cpu_ns / st.ticks / 1e3
-    wall_ns = st.wall_end_ns - st.wall_start_ns
-    if fc_cpu_ns is not None and (rec_cpu_ns is not None or not recorded) and wall_ns > 0:
-        out["cores_used"] = (st.cpu_ns + fc_cpu_ns + (rec_cpu_ns or 0)) / wall_ns
-    return out
-
-
-def realtime_criterion(loop: TickLoop, tick_ns: int) -> CriterionResult | None:
-    """Realtime runs: did the pacer hold 400 Hz (hil.analysis.timing.realtime_verdict)? A run that
-    fell behind must not read as a 400 Hz run because its RTF is about 1."""
-    st = loop.stats
-    if not st.lateness_ns:
-        return None
-    late = st.lateness_ns
-    verdict = realtime_held(len(late), st.late_ticks, late.percentile(99) / 1e3, late.max / 1e3, tick_ns / 1e3)
-    return CriterionResult("realtime held", "timing.lateness_us", "p99 / max", verdict.max_us,
-                           f"p99 <= {tick_ns / 1e3:g}, max <= {REALTIME_MAX_LATE_US:g}", verdict.held,
-                           "" if verdict.held else verdict.text)
-
-
-def _held_stats(stream: TraceStream, name: str) -> StreamingStats:
-    """Streamed statistics of the irregular series ``name`` held on the tick grid."""
-    stats, held = StreamingStats(), Held(name)
-    stream.subscribe(lambda chunk: stats.extend(held.block(chunk)[1]))
-    return stats
-
-
-def default_log_path(out_dir: Path, rig: Rig, scenario: Scenario, seed: int) -> Path:
-    stamp = clock.wall_ns()
-    import datetime
-
-    utc = datetime.datetime.fromtimestamp(stamp / 1e9, tz=datetime.UTC).strftime("%Y%m%dT%H%M%S")
-    return out_dir / f"{utc}_{rig.name}_{scenario.name}_s{seed}.mcap"
 
 
 #: realtime: chunk work stops this long before the next tick's deadline: the pacer's spin
@@ -340,7 +165,7 @@ async def run_flight_async(
         recorder = ProcessRecorder(
             log_path,
             run_start_unix_ns=run_start_unix_ns,
-            metadata=_metadata(rig, scenario, seed, mode, duration_ns),
+            metadata=run_metadata(rig, scenario, seed, mode, duration_ns),
             attachments=[
                 (rig.path.name, "application/toml", rig.path.read_bytes()),
                 (rig.flight_config_path.name, "application/toml", rig.flight_config_path.read_bytes()),
@@ -358,7 +183,7 @@ async def run_flight_async(
     logger = RunLogger(recorder, sink, devices, ports, rig, run_start_unix_ns)
     runner.log_event = logger.event
     criteria_stream = CriteriaStream(scenario.criteria, stream)
-    telemetry_compute_us = _held_stats(stream, "tm.compute_last_us")
+    telemetry_compute_us = held_stats(stream, "tm.compute_last_us")
 
     flight_config = write_flight_config(rig, scenario, ports, run_dir)
     argv = expand_command(rig.flight.command, config=flight_config)
@@ -501,10 +326,10 @@ async def run_flight_async(
         if stream.late_points:
             note(f"{stream.late_points} trace samples were stamped more than "
                  f"{stream.horizon_ns / 1e9:g} s before they arrived: the criteria used them late")
-        timing = _timing_summary(loop, rig.tick_ns, telemetry_compute_us, rig.flight.cpu_scale)
+        timing = timing_summary(loop, rig.tick_ns, telemetry_compute_us, rig.flight.cpu_scale)
         if started_ns is not None and loop.stats.wall_start_ns:
             timing["start_to_tick0_s"] = (loop.stats.wall_start_ns - started_ns) / 1e9
-        timing |= _cores_used(loop, fc_cpu_ns, rec_cpu_ns, recorded=recorder is not None)
+        timing |= cores_used(loop, fc_cpu_ns, rec_cpu_ns, recorded=recorder is not None)
         if steal_ms is not None:
             timing["host_steal_ms"] = steal_ms
             if mode is Mode.REALTIME:
@@ -518,25 +343,13 @@ async def run_flight_async(
         if held is not None:
             criteria.append(held)
         counters = logger.counters()
+        rt_scheduling = rt.result if mode is Mode.REALTIME else None
         stats = None
         if recorder is not None:
             logger.finish(end, criteria, timing, message, returncode)
-            final = {
-                "end_reason": end.value,
-                "passed": str(end is EndReason.COMPLETED and all(c.passed for c in criteria)).lower(),
-                "message": message,
-                "flight_returncode": str(returncode),
-                "timing": json.dumps({k: (v if math.isfinite(v) else None) for k, v in timing.items()}),
-                "clock": clock_used.value,
-                "clock_note": clock_note,
-                "rt_scheduling": rt.result.describe() if rt.result is not None and mode is Mode.REALTIME else "",
-                "cpu_latency": wake.result.describe() if wake.result is not None else "",
-                "cpu_scale": f"{rig.flight.cpu_scale:g}",
-                "shim_calls": json.dumps(shim.calls if shim else {}),
-                "idle_waits": json.dumps({"inline": shim.idle_waits_inline, "event_loop": shim.idle_waits_loop}
-                                         if shim else {}),
-                "notes": json.dumps(notes),
-            }
+            final = verdict_metadata(end, criteria, message, returncode, timing, clock_used=clock_used,
+                                     clock_note=clock_note, rt_scheduling=rt_scheduling, cpu_latency=wake.result,
+                                     cpu_scale=rig.flight.cpu_scale, shim=shim, notes=notes)
             stats = recorder.close(final)
         if not keep_run_dir:
             shutil.rmtree(run_dir, ignore_errors=True)
@@ -558,39 +371,9 @@ async def run_flight_async(
         clock_note=clock_note,
         shim=shim,
         notes=notes,
-        rt_scheduling=rt.result if mode is Mode.REALTIME else None,
+        rt_scheduling=rt_scheduling,
         cpu_latency=wake.result,
     )
-
-
-def _metadata(rig: Rig, scenario: Scenario, seed: int, mode: Mode, duration_ns: int) -> dict[str, str]:
-    import platform
-    import subprocess
-
-    try:
-        sha = subprocess.run(
-            ["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=Path(__file__).parent, timeout=5
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain"], capture_output=True, text=True, cwd=Path(__file__).parent, timeout=5
-        ).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        sha, dirty = "", ""
-    return {
-        "rig": rig.name,
-        "rig_file": str(rig.path),
-        "scenario": scenario.name,
-        "seed": str(seed),
-        "mode": mode.value,
-        "duration_s": f"{duration_ns / 1e9:g}",
-        "tick_ns": str(rig.tick_ns),
-        "bench_version": __version__,
-        "git_sha": sha or "unknown",
-        "git_dirty": str(bool(dirty)).lower(),
-        "python": platform.python_version(),
-        "host": platform.node(),
-        "device_models": native.describe(),
-    }
 
 
 def run_flight(
@@ -605,4 +388,7 @@ def run_flight(
     return asyncio.run(run_flight_async(rig, scenario, scenario_source=source, **kwargs))
 
 
-__all__ = ["ConfigError", "RunResult", "run_flight", "run_flight_async"]
+__all__ = [
+    "PORTS", "ConfigError", "RunResult", "deep_merge", "default_log_path", "pump_before", "realtime_criterion",
+    "run_flight", "run_flight_async", "write_flight_config",
+]

@@ -10,7 +10,8 @@ import pytest
 
 from hil.flight.tickloop import Mode
 from hil.config.rig import Rig, load_rig
-from hil.flight.run import RunResult, run_flight_async
+from hil.flight.run import run_flight_async
+from hil.flight.run_result import RunResult
 from hil.config.scenario import load_scenario
 
 

@@ -18,7 +18,7 @@ import pytest
 from hil.flight.tickloop import Clock, TickLoop
 from hil.flight.devices import DeviceSet
 from hil.record import iter_messages, read_wire
-from hil.flight.run import RunResult
+from hil.flight.run_result import RunResult
 from hil.flight.scenario_runner import ScenarioRunner
 from tests.system.conftest import explain
 

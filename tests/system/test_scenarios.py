@@ -12,7 +12,7 @@ import pytest
 from hil.flight.tickloop import EndReason
 from hil.config import SCENARIOS_DIR
 from hil.analysis.criteria import evaluate
-from hil.flight.run import RunResult
+from hil.flight.run_result import RunResult
 from hil.config.scenario import load_scenario
 from hil.record import message_counts, read_metadata
 from hil.record.validate import validate

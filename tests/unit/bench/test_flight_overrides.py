@@ -7,7 +7,7 @@ import tomllib
 from pathlib import Path
 
 from hil.config.rig import load_rig
-from hil.flight.run import write_flight_config
+from hil.flight.run_files import write_flight_config
 from hil.config.scenario import Scenario
 
 

@@ -1,4 +1,4 @@
-"""hil.fleet.replay.verify: a real short lockstep run re-run from its own attachments is identical;
+"""hil.fleet.verify.verify: a real short lockstep run re-run from its own attachments is identical;
 a copy with one IMU byte changed is caught at that byte and sim time."""
 
 from __future__ import annotations
@@ -11,8 +11,10 @@ import pytest
 
 from hil.flight.tickloop import Mode
 from hil.record import iter_messages, read_attachments, read_metadata
-from hil.fleet.replay import ReplayError, verify
-from hil.flight.run import RunResult, run_flight
+from hil.fleet.replay_error import ReplayError
+from hil.fleet.verify import verify
+from hil.flight.run import run_flight
+from hil.flight.run_result import RunResult
 from tests.unit.replay.support import copy_log, synthetic_chunks, write_synthetic
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
