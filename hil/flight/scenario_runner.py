@@ -16,6 +16,7 @@ from hil.analysis.criteria import CriterionResult
 from hil.config.scenario import GustEvent, PayloadEvent, Scenario, WindEvent
 
 if TYPE_CHECKING:
+    from hil.faults import FaultSchedule
     from hil.flight.devices import DeviceSet
     from hil.flight.process import FlightProcess
     from hil.config.rig import Rig
@@ -57,7 +58,8 @@ class ScenarioRunner:
             source=str(source) if source is not None else f"scenario {scenario.name}",
             run_duration_s=scenario.scenario.duration_s,
         )
-        self.schedule: Any = None
+        #: plays the scenario's [[faults]] (and a pytest bench's): built by attach_flight
+        self.schedule: FaultSchedule | None = None
         self._next = 0
         for key in scenario.timing:
             if key not in TIMING_BUDGETS:

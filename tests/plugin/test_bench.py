@@ -8,7 +8,7 @@ import pytest
 
 from hil.flight.tickloop import EndReason
 from hil.config import ConfigError
-from hil.pytest_plugin import PredicateFailed, RunEnded, SimTimeout
+from hil.testing.records import PredicateFailed, RunEnded, SimTimeout
 from hil.record import iter_messages, read_metadata
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]

@@ -7,13 +7,10 @@ from pathlib import Path
 import pytest
 
 from hil.config import ConfigError
-from hil.pytest_plugin import (
-    INLINE_DURATION_S,
-    _label_of,
-    _safe,
-    build_scenario,
-    keep_dir_of,
-)
+from hil.pytest_plugin import keep_dir_of
+from hil.testing.factory import _safe
+from hil.testing.scenario import INLINE_DURATION_S, build_scenario
+from hil.testing.simtime import _label_of
 from hil.config.rig import load_rig
 
 pytest_plugins = ["pytester"]
