@@ -188,7 +188,7 @@ def _case_files(params: dict[str, Any], case_dir: Path) -> tuple[Path, Path]:
         template = Path(str(flight.get("config", "flightcode-paper-quad.toml")))
         flight["config"] = str(template if template.is_absolute() else (rig.parent / template).resolve())
         data["flight"] = flight
-        rig = case_dir / rig.name  # same name: the log's attachment is found by it (hil.fleet.replay.verify)
+        rig = case_dir / rig.name  # same name: the log's attachment is found by it (hil.fleet.verify.verify)
         rig.write_text(tomli_w.dumps(data))
     if params["flight_overrides"]:
         data = load_toml(scenario)

@@ -86,7 +86,8 @@ def main() -> int:
 
     from rich.console import Console
 
-    from hil.fleet.campaign import load_campaign, run_campaign
+    from hil.fleet.campaign import run_campaign
+    from hil.fleet.campaign_file import load_campaign
 
     quiet = Console(file=open(os.devnull, "w"))  # noqa: SIM115 - lives as long as the run
     rows = []

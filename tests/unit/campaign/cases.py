@@ -6,7 +6,8 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from hil.fleet.campaign import failure, run_case
+from hil.fleet.campaign import run_case
+from hil.fleet.campaign_executors import failure
 
 DIE_SEED = 13
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from hil.fleet.campaign import KeepLogs, load_campaign
+from hil.fleet.campaign_file import KeepLogs, load_campaign
 from hil.config import ConfigError
 
 ROOT = Path(__file__).resolve().parents[3]

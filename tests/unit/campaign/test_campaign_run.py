@@ -16,7 +16,8 @@ from typing import Any
 import pytest
 from rich.console import Console
 
-from hil.fleet.campaign import CampaignRun, KeepLogs, load_campaign, run_campaign
+from hil.fleet.campaign import CampaignRun, run_campaign
+from hil.fleet.campaign_file import KeepLogs, load_campaign
 from hil.record import read_attachments, read_metadata
 from tests.unit.campaign import cases as fake
 
@@ -117,7 +118,7 @@ def test_keep_logs_none_flies_unrecorded(tmp_path: Path, monkeypatch: pytest.Mon
     import hil.flight.run
     from hil.fleet import campaign_case
     from hil.flight.tickloop import EndReason
-    from hil.flight.run import RunResult
+    from hil.flight.run_result import RunResult
 
     asked: dict[str, Any] = {}
 
@@ -192,7 +193,7 @@ def test_local_cluster_speaks_tls_and_refuses_clients_without_its_credentials() 
     pytest.importorskip("distributed")
     from distributed import Client
 
-    from hil.fleet.campaign import start_local_cluster
+    from hil.fleet.campaign_executors import start_local_cluster
 
     with start_local_cluster(1) as cluster:
         assert cluster.scheduler_address.startswith("tls://127.0.0.1:")

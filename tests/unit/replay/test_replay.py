@@ -13,7 +13,8 @@ import pytest
 import serial
 from rich.console import Console
 
-from hil.fleet.replay import ReplayError, replay, replay_ports
+from hil.fleet.replay import replay, replay_ports
+from hil.fleet.replay_error import ReplayError
 from hil.transport.base import WireRecord
 from tests.unit.replay.support import S, synthetic_chunks, write_synthetic
 
