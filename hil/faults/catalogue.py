@@ -2,21 +2,26 @@
 
 from __future__ import annotations
 
+from enum import Enum
 from typing import Any
 
-from hil.faults import analog, devices, imu, plant, process, wire
+from hil.faults import adc, analog, esc, imu, link, plant, process, rc, wire, xsens
 from hil.faults.base import Fault
 
 #: kind name -> class, grouped by layer in listing order.
 CATALOGUE: dict[str, type[Fault[Any]]] = {
-    cls.kind: cls for cls in (*plant.FAULTS, *imu.FAULTS, *analog.FAULTS, *wire.FAULTS, *devices.FAULTS, *process.FAULTS)
+    cls.kind: cls
+    for cls in (
+        *plant.FAULTS, *imu.FAULTS, *analog.FAULTS, *adc.FAULTS, *wire.FAULTS,
+        *xsens.FAULTS, *rc.FAULTS, *esc.FAULTS, *link.FAULTS, *process.FAULTS,
+    )
 }
 
 
 def _default_text(value: Any) -> str:
     if value is None:
         return "-"
-    if hasattr(value, "value"):  # enums
+    if isinstance(value, Enum):
         return str(value.value)
     if isinstance(value, tuple):
         return "(" + ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value) + ")"

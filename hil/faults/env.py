@@ -1,15 +1,6 @@
-"""What the faults of one run act on, and how overlapping faults combine.
-
-Several faults may act on the same thing at once (a baro bias during a baro noise
-increase, two thrust losses on one rotor). Each device hook takes the *combined* setting,
-so every shared target has a composer: faults add and remove themselves, and the composer
-pushes the combination to the device whenever it changes:
-
-* biases and offsets add, scale and noise factors multiply, "frozen"/"saturate" are ORed;
-* thrust factors of one rotor multiply, battery series resistances add;
-* loss probabilities combine as independent losses: 1 - prod(1 - p), the rig's own
-  ``loss_probability`` included;
-* the latest stuck value wins.
+"""What the faults of one run act on: the devices, the flight process, the composers of
+shared targets (hil/faults/composers.py: how overlapping faults combine), the run's wire
+filters and background tasks.
 
 The IMU sensor faults transform the motion the bench hands to the XSENS model: while any
 is active, ``devices.imu_motion`` holds their composition (removed again when the last one
@@ -25,9 +16,20 @@ from collections.abc import Callable, Coroutine, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
-from emulators.analog.frontend import AccelFault, BaroFault
+from hil.faults.composers import (
+    AccelComposer,
+    AdcChannelComposer,
+    BaroComposer,
+    BatteryComposer,
+    EscComposer,
+    ImuSilence,
+    LinkLossComposer,
+    RotorComposer,
+    VrefComposer,
+)
 
 if TYPE_CHECKING:
+    from emulators.rc.ppm import Sticks
     from hil.flight.devices import DeviceSet, WireFilter
     from hil.flight.process import FlightProcess
 
@@ -76,202 +78,6 @@ class ImuMotion:
         return q, w, f
 
 
-class _Composer:
-    """Holds the active contributors of one target; ``push`` applies their combination."""
-
-    def __init__(self) -> None:
-        self.items: list[Any] = []
-
-    def add(self, item: Any, t_ns: int) -> None:
-        self.items.append(item)
-        self.push(t_ns)
-
-    def remove(self, item: Any, t_ns: int) -> None:
-        self.items.remove(item)
-        self.push(t_ns)
-
-    def push(self, t_ns: int) -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-
-class BaroComposer(_Composer):
-    """Contributors provide ``baro_terms(t_ns) -> BaroFault``."""
-
-    def __init__(self, devices: DeviceSet) -> None:
-        super().__init__()
-        self._devices = devices
-
-    def push(self, t_ns: int) -> None:
-        bias, scale, noise, frozen = 0.0, 1.0, 1.0, False
-        for item in self.items:
-            terms: BaroFault = item.baro_terms(t_ns)
-            bias += terms.bias_Pa
-            scale *= terms.scale
-            noise *= terms.noise_factor
-            frozen = frozen or terms.frozen
-        fe = self._devices.analog
-        combined = BaroFault(bias, scale, noise, frozen)
-        if combined != fe.baro_fault:
-            fe.set_baro_fault(bias_Pa=bias, scale=scale, noise_factor=noise, frozen=frozen)
-
-
-class AccelComposer(_Composer):
-    """Contributors provide ``accel_terms(t_ns) -> AccelFault`` (body axes)."""
-
-    def __init__(self, devices: DeviceSet) -> None:
-        super().__init__()
-        self._devices = devices
-
-    def push(self, t_ns: int) -> None:
-        bias = [0.0, 0.0, 0.0]
-        scale, noise, frozen, saturate = 1.0, 1.0, False, False
-        for item in self.items:
-            terms: AccelFault = item.accel_terms(t_ns)
-            for i in range(3):
-                bias[i] += terms.bias_mps2[i]
-            scale *= terms.scale
-            noise *= terms.noise_factor
-            frozen = frozen or terms.frozen
-            saturate = saturate or terms.saturate
-        fe = self._devices.analog
-        b: Vec3 = (bias[0], bias[1], bias[2])
-        if AccelFault(b, scale, noise, frozen, saturate) != fe.accel_fault:
-            fe.set_accel_fault(bias_mps2=b, scale=scale, noise_factor=noise, frozen=frozen, saturate=saturate)
-
-
-class RotorComposer(_Composer):
-    """Contributors have ``rotor`` (0..3) and ``thrust_factor``; factors of a rotor multiply."""
-
-    def __init__(self, devices: DeviceSet) -> None:
-        super().__init__()
-        self._devices = devices
-        self._pushed = [1.0, 1.0, 1.0, 1.0]
-
-    def factors(self) -> list[float]:
-        out = [1.0, 1.0, 1.0, 1.0]
-        for item in self.items:
-            out[item.rotor] *= item.thrust_factor
-        return out
-
-    def push(self, t_ns: int) -> None:
-        for i, f in enumerate(self.factors()):
-            if f != self._pushed[i]:
-                self._devices.plant.set_rotor_thrust_factor(i, f)
-                self._pushed[i] = f
-
-
-class BatteryComposer(_Composer):
-    """Contributors have ``extra_ohm``; series resistances add."""
-
-    def __init__(self, devices: DeviceSet) -> None:
-        super().__init__()
-        self._devices = devices
-
-    def push(self, t_ns: int) -> None:
-        self._devices.plant.set_battery_sag(sum(item.extra_ohm for item in self.items))
-
-
-class LinkLossComposer(_Composer):
-    """Contributors have ``loss_probability``; losses are independent."""
-
-    def __init__(self, devices: DeviceSet) -> None:
-        super().__init__()
-        self._devices = devices
-        self.base = float(devices.rig.telemetry.link.loss_probability)
-
-    def combined(self) -> float:
-        keep = 1.0 - self.base
-        for item in self.items:
-            keep *= 1.0 - item.loss_probability
-        return 1.0 - keep
-
-    def push(self, t_ns: int) -> None:
-        self._devices.link.set_loss_probability(self.combined())
-
-
-class VrefComposer(_Composer):
-    """Contributors provide ``vref_offset_V(t_ns)``; offsets add to the nominal reference."""
-
-    def __init__(self, devices: DeviceSet) -> None:
-        super().__init__()
-        self._devices = devices
-        self.nominal_V: float | None = None
-
-    def push(self, t_ns: int) -> None:
-        mcp = self._devices.mcp
-        if self.nominal_V is None:
-            self.nominal_V = mcp.vref_V
-        mcp.vref_V = self.nominal_V + sum(item.vref_offset_V(t_ns) for item in self.items)
-        if not self.items:
-            self.nominal_V = None
-
-
-class AdcChannelComposer(_Composer):
-    """Contributors have ``channel`` and either ``stuck_V`` (latest wins) or ``open`` = True."""
-
-    def __init__(self, devices: DeviceSet) -> None:
-        super().__init__()
-        self._devices = devices
-        self._stuck: list[float | None] = [None] * 4
-        self._open = [False] * 4
-
-    def push(self, t_ns: int) -> None:
-        fe = self._devices.analog
-        stuck: list[float | None] = [None] * 4
-        opened = [False] * 4
-        for item in self.items:
-            if getattr(item, "open", False):
-                opened[item.channel] = True
-            else:
-                stuck[item.channel] = item.stuck_V
-        for ch in range(4):
-            if stuck[ch] != self._stuck[ch]:
-                fe.set_channel_stuck(ch, stuck[ch])
-            if opened[ch] != self._open[ch]:
-                fe.set_channel_open(ch, opened[ch])  # (re)starts the drift from the cut
-        self._stuck, self._open = stuck, opened
-
-
-class EscComposer(_Composer):
-    """Contributors have ``esc`` and one of ``refuse_arm`` / ``desync_rate_hz`` / ``stuck_throttle``."""
-
-    def __init__(self, devices: DeviceSet) -> None:
-        super().__init__()
-        self._devices = devices
-        #: per ESC: (refuse, desync rate, the stuck contributor or None)
-        self._pushed: list[tuple[bool, float, Any]] = [(False, 0.0, None)] * len(devices.escs)
-
-    def push(self, t_ns: int) -> None:
-        for i, esc in enumerate(self._devices.escs):
-            mine = [item for item in self.items if item.esc == i]
-            refuse = any(getattr(item, "refuse_arm", False) for item in mine)
-            rate = sum(getattr(item, "desync_rate_hz", 0.0) for item in mine)
-            stuck = [item for item in mine if hasattr(item, "stuck_throttle")]
-            last = stuck[-1] if stuck else None
-            old_refuse, old_rate, old_stuck = self._pushed[i]
-            if refuse != old_refuse:
-                esc.set_refuse_arm(refuse)
-            if rate != old_rate:
-                esc.set_desync(rate)
-            if last is not old_stuck:
-                if last is None:
-                    esc.set_stuck(False)
-                else:  # None: frozen at the throttle it has now
-                    esc.set_stuck(True, last.stuck_throttle)
-            self._pushed[i] = (refuse, rate, last)
-
-
-class ImuSilence(_Composer):
-    """The XSENS stops streaming while any contributor is active."""
-
-    def __init__(self, devices: DeviceSet) -> None:
-        super().__init__()
-        self._devices = devices
-
-    def push(self, t_ns: int) -> None:
-        self._devices.imu.set_silenced(bool(self.items))
-
-
 @dataclass
 class LossWindow:
     """PPM signal absent for frames starting in ``[start_ns, end_ns)`` (None: open)."""
@@ -281,9 +87,10 @@ class LossWindow:
 
 
 class _GatedScript:
-    """The stick script with extra signal-loss windows (everything else delegated)."""
+    """The stick script with extra signal-loss windows: a ``Sticks`` (emulators/rc/ppm.py),
+    the one interface the PPM generator reads its script through."""
 
-    def __init__(self, inner: Any, windows: list[LossWindow]) -> None:
+    def __init__(self, inner: Sticks, windows: list[LossWindow]) -> None:
         self.inner = inner
         self.windows = windows
 
@@ -293,8 +100,8 @@ class _GatedScript:
                 return False
         return bool(self.inner.signal_present(t_ns))
 
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.inner, name)
+    def pulses_us(self, t_ns: int) -> tuple[int, ...]:
+        return self.inner.pulses_us(t_ns)
 
 
 class RcLossGate:
@@ -303,7 +110,7 @@ class RcLossGate:
     def __init__(self, devices: DeviceSet) -> None:
         self._devices = devices
         self.windows: list[LossWindow] = []
-        self._inner: Any = None
+        self._inner: Sticks | None = None
         self._last_t: int | None = None
 
     def open(self, start_ns: int, end_ns: int | None) -> LossWindow:
@@ -312,7 +119,7 @@ class RcLossGate:
         if self._inner is None:
             ppm = self._devices.ppm
             self._inner = ppm.script
-            ppm.script = _GatedScript(self._inner, self.windows)  # type: ignore[assignment] # duck-typed
+            ppm.script = _GatedScript(self._inner, self.windows)
         return w
 
     def close(self, w: LossWindow, end_ns: int) -> None:

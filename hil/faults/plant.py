@@ -124,7 +124,7 @@ RP = TypeVar("RP", bound=MotorFailureParams)
 
 
 class _RotorFault(Fault[RP]):
-    """Scales one rotor's thrust and drag torque (env.RotorComposer)."""
+    """Scales one rotor's thrust and drag torque (composers.RotorComposer)."""
 
     layer = Layer.PLANT
 

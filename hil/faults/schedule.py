@@ -30,6 +30,7 @@ from hil.faults.base import NS_PER_S, Fault, Layer, ScheduledFault, Timing
 from hil.faults.catalogue import CATALOGUE
 from hil.faults.env import FaultEnv
 from hil.faults.loader import check_fault
+from hil.faults.wire import WireParams
 
 if TYPE_CHECKING:
     from hil.flight.devices import DeviceSet
@@ -106,9 +107,8 @@ class FaultSchedule:
         cls = CATALOGUE[f.kind]
         if cls.layer is Layer.PROCESS and self.flight is None:
             return f"{where} kind: needs the flight code process, and this bench runs without one"
-        port = getattr(f.params, "port", None)
-        if port is not None and port not in self.devices.by_port:
-            return f"{where} port: no device on port {port!r} in this bench"
+        if isinstance(f.params, WireParams) and f.params.port not in self.devices.by_port:
+            return f"{where} port: no device on port {f.params.port!r} in this bench"
         return ""
 
     def _entry(self, spec: ScheduledFault, rng: np.random.Generator, start_ns: int, end_ns: int | None) -> _Entry:

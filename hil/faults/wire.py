@@ -348,7 +348,7 @@ class BaudMismatch(WireFault[BaudParams]):
 
     def _host_bps(self) -> int:
         port = self.env.devices.ports.get(self.params.port)
-        line = getattr(port, "line", None)
+        line = None if port is None else port.line  # the client's settings (Port.line; None: not known yet)
         if line is not None and line.baud:
             return int(line.baud)
         return nominal_baud_bps(self.env.devices.rig, self.params.port)

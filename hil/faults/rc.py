@@ -1,101 +1,26 @@
-"""Device faults: the XSENS, the RC receiver, the ESCs, the telemetry radio link.
+"""RC receiver faults: PPM signal loss, glitches, channel count, a stuck channel; SBUS flags.
 
-They use the emulators' fault hooks: ``MtiDevice.set_silenced / power_cycle /
-jump_packet_counter``; ``PpmGenerator.inject_glitch / set_channel_count / set_stuck`` (and
-the stick script's ``signal_present`` for loss, see env.RcLossGate); ``Esc.set_refuse_arm
-/ set_desync / set_stuck``; ``RadioLink.set_loss_probability``. RC faults act on the PPM
-train, upstream of the front-end, so they apply to capture and SBUS rigs alike, except
-``rc.sbus_flags``, which sets flag bits in the SBUS frames on the wire (SBUS rigs only).
+They use the PPM generator's fault hooks ``PpmGenerator.inject_glitch / set_channel_count /
+set_stuck`` and, for loss, the stick script's ``signal_present`` (env.RcLossGate wraps the
+script). They act on the PPM train, upstream of the front-end, so they apply to capture and
+SBUS rigs alike, except ``rc.sbus_flags``, which sets flag bits in the SBUS frames on the
+wire (SBUS rigs only).
 """
 
 from __future__ import annotations
 
 from collections import Counter
-from typing import Any, TypeVar
+from typing import Any
 
 from pydantic import Field
 
 from emulators.rc.sbus import SbusFlag
 from emulators.rc.script import CENTRE_US
-from hil.faults.base import (
-    NS_PER_S,
-    Fault,
-    FaultParams,
-    Layer,
-    NoParams,
-    Refused,
-    Timing,
-)
+from hil.faults.base import NS_PER_S, Fault, FaultParams, Layer, NoParams, Refused
 from hil.faults.framing import Direction, Protocol, split
 from hil.faults.wire import WireFault
 
-ESC_HELP = "ESC index 0..3 (Maestro channel i, drives rotor i)"
 
-
-# -- XSENS ----------------------------------------------------------------------------------------
-class ImuSilence(Fault[NoParams]):
-    """The XSENS stops streaming (a cut line inside the device): no data messages; it keeps
-    counting, so the packet counter jumps when data return."""
-
-    kind = "imu.silence"
-    layer = Layer.DEVICE
-    Params = NoParams
-
-    @classmethod
-    def target_of(cls, params: Any) -> str:
-        return "imu"
-
-    def apply(self, t_ns: int) -> dict[str, Any]:
-        self.env.imu_silence.add(self, t_ns)
-        return {"streaming": False}
-
-    def revert(self, t_ns: int) -> dict[str, Any]:
-        self.env.imu_silence.remove(self, t_ns)
-        return {"streaming": not self.env.imu_silence.items}
-
-
-class ImuReset(Fault[NoParams]):
-    """The XSENS resets (brown-out): power cycle at t_s, WakeUp, then the stored configuration
-    (turn-on errors drawn again, counters cleared)."""
-
-    kind = "imu.reset"
-    layer = Layer.DEVICE
-    timing = Timing.INSTANT
-    Params = NoParams
-
-    @classmethod
-    def target_of(cls, params: Any) -> str:
-        return "imu"
-
-    def apply(self, t_ns: int) -> dict[str, Any]:
-        imu = self.env.devices.imu
-        before = imu.state.name
-        imu.power_cycle(t_ns)
-        return {"state_before": before, "state": imu.state.name}
-
-
-class CounterJumpParams(FaultParams):
-    delta: int = Field(default=100, ge=1, le=0xFFFF, description="added to the packet/sample counter (mod 2^16)")
-
-
-class ImuCounterJump(Fault[CounterJumpParams]):
-    """The XSENS packet counter (legacy: sample counter) jumps by ``delta``."""
-
-    kind = "imu.counter_jump"
-    layer = Layer.DEVICE
-    timing = Timing.INSTANT
-    Params = CounterJumpParams
-
-    @classmethod
-    def target_of(cls, params: Any) -> str:
-        return "imu"
-
-    def apply(self, t_ns: int) -> dict[str, Any]:
-        self.env.devices.imu.jump_packet_counter(self.params.delta)
-        return {"delta": self.params.delta}
-
-
-# -- RC -------------------------------------------------------------------------------------------
 def _check_channel(channel: int, rig: Any) -> None:
     n = rig.rc.ppm.n_channels
     if not 1 <= channel <= n:
@@ -294,130 +219,4 @@ class SbusFlags(WireFault[Any]):
         return bytes(out)
 
 
-# -- ESC ------------------------------------------------------------------------------------------
-class EscParams(FaultParams):
-    esc: int = Field(ge=0, le=3, description=ESC_HELP)
-
-
-EP = TypeVar("EP", bound=EscParams)
-
-
-class _EscFault(Fault[EP]):
-    layer = Layer.DEVICE
-
-    @classmethod
-    def target_of(cls, params: Any) -> str:
-        return f"esc {params.esc}"
-
-    @property
-    def esc(self) -> int:
-        return int(self.params.esc)
-
-    def apply(self, t_ns: int) -> dict[str, Any]:
-        self.env.escs.add(self, t_ns)
-        return self.params.model_dump()
-
-    def revert(self, t_ns: int) -> dict[str, Any]:
-        self.env.escs.remove(self, t_ns)
-        return {"esc": self.esc, "armed": self.env.devices.escs[self.esc].armed}
-
-
-class EscRefuseArm(_EscFault[EscParams]):
-    """An ESC does not arm (failed calibration, wrong throttle range): the motor stays off
-    while the fault lasts, and an ESC that armed before is unaffected."""
-
-    kind = "esc.refuse_arm"
-    Params = EscParams
-    refuse_arm = True
-
-
-class DesyncParams(EscParams):
-    rate_hz: float = Field(default=2.0, gt=0.0, le=100.0, description="mean rate of desyncs (Poisson), 1/s")
-
-
-class EscDesync(_EscFault[DesyncParams]):
-    """Sporadic desyncs: thrust drops to zero for the ESC's desync_duration_s at random
-    times (seeded by the ESC's generator)."""
-
-    kind = "esc.desync"
-    Params = DesyncParams
-
-    @property
-    def desync_rate_hz(self) -> float:
-        return float(self.params.rate_hz)
-
-
-class EscStuckParams(EscParams):
-    throttle: float | None = Field(default=None, ge=0.0, le=1.0, description="stuck throttle 0..1; omitted: its value at t_s")
-
-
-class EscStuck(_EscFault[EscStuckParams]):
-    """An ESC's output is stuck (ignores its input)."""
-
-    kind = "esc.stuck"
-    Params = EscStuckParams
-
-    @property
-    def stuck_throttle(self) -> float | None:
-        return self.params.throttle
-
-
-# -- telemetry link ---------------------------------------------------------------------------------
-LP = TypeVar("LP", bound=FaultParams)
-
-
-class _LinkLoss(Fault[LP]):
-    """Adds a loss probability to the radio link (env.LinkLossComposer)."""
-
-    layer = Layer.LINK
-
-    @classmethod
-    def target_of(cls, params: Any) -> str:
-        return "telemetry link"
-
-    @property
-    def loss_probability(self) -> float:
-        raise NotImplementedError
-
-    def apply(self, t_ns: int) -> dict[str, Any]:
-        self.env.link_loss.add(self, t_ns)
-        return {"loss_probability": self.env.link_loss.combined()}
-
-    def revert(self, t_ns: int) -> dict[str, Any]:
-        self.env.link_loss.remove(self, t_ns)
-        return {"loss_probability": self.env.link_loss.combined()}
-
-
-class TelemetryDropout(_LinkLoss[NoParams]):
-    """The radio link drops out (out of range): every transmission attempt is lost."""
-
-    kind = "telemetry.dropout"
-    Params = NoParams
-
-    @property
-    def loss_probability(self) -> float:
-        return 1.0
-
-
-class LossParams(FaultParams):
-    loss_probability: float = Field(gt=0.0, lt=1.0, description="probability that one transmission attempt is lost")
-
-
-class TelemetryLoss(_LinkLoss[LossParams]):
-    """Packet loss on the radio link (interference): each attempt is lost with this probability
-    (acknowledged packets are retried by the MAC as usual)."""
-
-    kind = "telemetry.loss"
-    Params = LossParams
-
-    @property
-    def loss_probability(self) -> float:
-        return float(self.params.loss_probability)
-
-
-FAULTS: tuple[type[Fault[Any]], ...] = (
-    ImuSilence, ImuReset, ImuCounterJump,
-    RcSignalLoss, RcGlitch, RcChannelCount, RcChannelStuck, SbusFlags,
-    EscRefuseArm, EscDesync, EscStuck,
-    TelemetryDropout, TelemetryLoss,
-)
+FAULTS: tuple[type[Fault[Any]], ...] = (RcSignalLoss, RcGlitch, RcChannelCount, RcChannelStuck, SbusFlags)
