@@ -24,6 +24,7 @@ Figures (all microseconds unless noted):
 
 from __future__ import annotations
 
+import enum
 import math
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass
@@ -226,6 +227,13 @@ def compute_samples_us(
     return tm[np.isfinite(tm)]
 
 
+class ComputeSource(enum.StrEnum):
+    """Where a report's ``compute_us`` came from."""
+
+    CPU = "cpu"  #: the flight code's CPU per sample (virtual time), times the run's cpu_scale
+    TELEMETRY = "telemetry"  #: the compute time the flight code reports in its telemetry
+
+
 @dataclass(frozen=True)
 class TimingReport:
     samples: int
@@ -238,7 +246,7 @@ class TimingReport:
     no_command: int  #: barrier timeouts (no ESC command for a sample)
     lateness_us: Stats | None = None  #: realtime: tick start - its wall deadline
     realtime: RealtimeVerdict | None = None  #: realtime runs only
-    compute_source: str = "telemetry"  #: "cpu" (virtual time, scaled) or "telemetry"
+    compute_source: ComputeSource = ComputeSource.TELEMETRY
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
         return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
@@ -304,7 +312,7 @@ def analyze_arrays(
     budget_us: float = NOMINAL_PERIOD_US,
     nominal_period_us: float = NOMINAL_PERIOD_US,
     lateness_us: np.ndarray | None = None,
-    compute_source: str = "telemetry",
+    compute_source: ComputeSource = ComputeSource.TELEMETRY,
 ) -> TimingReport:
     """The report from raw per-sample arrays; negative latency marks a missing command,
     negative lateness a lockstep sample."""
@@ -350,7 +358,7 @@ def analyze_log(log: Path, budget_us: float = NOMINAL_PERIOD_US) -> TimingReport
     except ValueError:
         cpu_scale = 1.0
     cpu = tick.get("fc_cpu_us") if tick else None
-    source = "cpu" if cpu is not None and np.any(np.asarray(cpu) >= 0) else "telemetry"
+    source = ComputeSource.CPU if cpu is not None and np.any(np.asarray(cpu) >= 0) else ComputeSource.TELEMETRY
     compute = compute_samples_us(cpu, telemetry, cpu_scale)
     if not tick or "latency_us" not in tick:
         return analyze_arrays(np.zeros(0), np.zeros(0), compute_us=compute, budget_us=budget_us, compute_source=source)

@@ -8,7 +8,7 @@ from __future__ import annotations
 from rich.console import Console
 from rich.table import Table
 
-from hil.analysis.timing import TimingReport
+from hil.analysis.timing import ComputeSource, TimingReport
 
 
 def print_timing(console: Console, rep: TimingReport, log_name: str) -> None:
@@ -20,7 +20,7 @@ def print_timing(console: Console, rep: TimingReport, log_name: str) -> None:
         ("response latency (us): IMU emitted -> ESC command", rep.latency_us),
         ("ESC command period (us)", rep.period_us),
         ("period jitter |T - 2500| (us)", rep.jitter_us),
-        (("flight code's CPU per sample (us, x cpu_scale)" if rep.compute_source == "cpu"
+        (("flight code's CPU per sample (us, x cpu_scale)" if rep.compute_source is ComputeSource.CPU
           else "flight code's own compute (us, telemetry)"), rep.compute_us),
         *([("tick lateness (us): start - wall deadline", rep.lateness_us)] if rep.lateness_us is not None else []),
     ):

@@ -12,7 +12,7 @@ import pytest
 from hil.record import Recorder
 from hil.config.scenario import Scenario, ScenarioHeader
 from hil.flight.scenario_runner import ScenarioRunner
-from hil.analysis.timing import analyze_arrays, analyze_log
+from hil.analysis.timing import ComputeSource, analyze_arrays, analyze_log
 
 PERIOD_NS = 2_500_000
 
@@ -129,6 +129,6 @@ def test_lockstep_has_no_realtime_verdict_and_scaled_compute() -> None:
     assert realtime_verdict(np.full(100, -1.0)) is None  # lockstep samples carry -1
     np.testing.assert_array_equal(scaled_compute_us(np.array([100.0, -1.0, 250.0]), 4.0), [400.0, 1000.0])
     rep = analyze_arrays(np.full(10, 0.0), np.arange(10) * PERIOD_NS, lateness_us=np.full(10, -1.0),
-                         compute_us=scaled_compute_us(np.full(10, 50.0), 2.0), compute_source="cpu")
+                         compute_us=scaled_compute_us(np.full(10, 50.0), 2.0), compute_source=ComputeSource.CPU)
     assert rep.realtime is None and rep.lateness_us is None
     assert rep.compute_us.p99 == 100.0 and rep.compute_source == "cpu"
