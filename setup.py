@@ -24,15 +24,18 @@ from setuptools import Extension, setup
 
 ROOT = Path(__file__).parent
 #: interpreted on purpose (see the module docstring)
-INTERPRETED = {"params.py", "script.py"}
+INTERPRETED = {"params.py", "params_vehicle.py", "params_environment.py", "script.py"}
 COMPILED_PACKAGES = ("emulators", "hil/plant")
 #: the modules of ``hil`` a lockstep tick runs through (docs/performance.md, sixth round), and
 #: the pty port under them (eighth round; the serial port, used only on attached hardware,
 #: stays interpreted)
 TICK_PATH = (
-    "hil/flight/tickloop.py", "hil/flight/devices.py", "hil/flight/runlog.py", "hil/analysis/timing.py", "hil/analysis/online_stats.py",
+    "hil/flight/tickloop.py", "hil/flight/tick.py", "hil/flight/devices.py", "hil/flight/runlog.py",
+    "hil/flight/messages.py", "hil/analysis/timing.py", "hil/analysis/timing_stream.py",
+    "hil/analysis/online_stats.py",
     "hil/analysis/trace_stream.py", "hil/analysis/criteria_stream.py", "hil/analysis/signal_stream.py", "hil/flight/telemetry.py",
     "hil/frozen.py", "hil/record/process.py", "hil/vtime/control.py", "hil/vtime/scheduler.py",
+    "hil/vtime/port_io.py", "hil/vtime/stall.py",
     "hil/transport/base.py", "hil/transport/pty.py",
 )
 

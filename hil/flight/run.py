@@ -205,7 +205,8 @@ async def run_flight_async(
     if mode is Mode.LOCKSTEP:
         wanted = rig.flight.virtual_time if virtual_time is None else virtual_time
         opened: VirtualTime | Fallback = (
-            VirtualTime.open(run_dir, ports, argv, on_stall=lambda st: note(describe_stall(st)))
+            VirtualTime.open(run_dir, {n: p for n, p in ports.items() if isinstance(p, PtyPort)}, argv,
+                             on_stall=lambda st: note(describe_stall(st)))
             if wanted else Fallback("virtual time switched off (rig [flight] virtual_time or --wall-clock)")
         )
         if isinstance(opened, Fallback):

@@ -14,7 +14,8 @@ import numpy as np
 
 from hil.analysis.criteria import CriterionResult
 from hil.analysis.signal_stream import Held
-from hil.analysis.timing import REALTIME_MAX_LATE_US, StreamingStats, realtime_held, scaled_compute_us
+from hil.analysis.timing import REALTIME_MAX_LATE_US, realtime_held, scaled_compute_us
+from hil.analysis.timing_stream import StreamingStats
 from hil.analysis.trace import Trace
 from hil.analysis.trace_stream import TraceStream
 from hil.flight.tickloop import Clock, EndReason, TickLoop

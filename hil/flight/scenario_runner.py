@@ -10,15 +10,18 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from pathlib import Path
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 from hil.analysis.criteria import CriterionResult
 from hil.config.scenario import GustEvent, PayloadEvent, Scenario, WindEvent
 
 if TYPE_CHECKING:
+    from emulators.rc.script import StickScript
     from hil.faults import FaultSchedule
     from hil.flight.devices import DeviceSet
     from hil.flight.process import FlightProcess
+    from hil.plant.plant import Plant
     from hil.config.rig import Rig
 
 S = 1_000_000_000
@@ -70,7 +73,7 @@ class ScenarioRunner:
                 )
 
     # -- set-up -----------------------------------------------------------------------------
-    def stick_script(self) -> object:
+    def stick_script(self) -> StickScript:
         """The RC emulator's stick script built from the scenario's [[sticks]]."""
         from emulators.rc.script import Loss, Macro, Setpoint, Sine, StickScript
 
@@ -104,10 +107,10 @@ class ScenarioRunner:
         for ev in self.scenario.events:
             t_ns = int(round(ev.t_s * S))
             if isinstance(ev, PayloadEvent):
-                self._at(t_ns, lambda t, e=ev: plant.set_payload(e.extra_mass_kg, e.r_B_m), "payload", ev.model_dump())
+                self._at(t_ns, partial(_set_payload, plant, ev), "payload", ev.model_dump())
             elif isinstance(ev, WindEvent):
                 until = None if ev.duration_s is None else t_ns + int(round(ev.duration_s * S))
-                self._at(t_ns, lambda t, e=ev, u=until: plant.add_wind(e.wind_N_mps, u), "wind", ev.model_dump())
+                self._at(t_ns, partial(_add_wind, plant, ev, until), "wind", ev.model_dump())
             elif isinstance(ev, GustEvent):
                 plant.add_gust(ev.wind_N_mps, t_ns, int(round(ev.duration_s * S)))
                 self._at(t_ns, lambda t: None, "gust", ev.model_dump())
@@ -167,3 +170,11 @@ class ScenarioRunner:
             detail = "" if math.isfinite(value) else f"no {field} figure in this run"
             out.append(CriterionResult(f"timing: {field}", f"timing.{field}", "max", value, f"<= {bound:g}", ok, detail))
         return out
+
+
+def _set_payload(plant: Plant, ev: PayloadEvent, t_ns: int) -> None:
+    plant.set_payload(ev.extra_mass_kg, ev.r_B_m)
+
+
+def _add_wind(plant: Plant, ev: WindEvent, until_ns: int | None, t_ns: int) -> None:
+    plant.add_wind(ev.wind_N_mps, until_ns)

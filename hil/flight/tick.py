@@ -14,7 +14,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from hil.analysis.timing import StreamingStats
+from hil.analysis.timing_stream import LatencyStats, StreamingStats
 from hil.frozen import by_fields
 
 
@@ -103,6 +103,7 @@ class TickDevices(Protocol):
 
     t_ns: int
     on_esc_command: Callable[[int, int], None]
+    latency_stats: LatencyStats  #: the response figures, read by the run's summary
 
     def advance_boot(self, t_ns: int) -> None: ...
     def unconfigured(self) -> dict[str, str]: ...
@@ -120,7 +121,7 @@ TickHook = Callable[[int, int], None]
 #: realtime: called after each tick's bookkeeping with the next tick's deadline (host
 #: monotonic ns): work that may wait for the time the tick leaves (hil/flight/run.py: the criteria's
 #: per-chunk work); it must return before the deadline
-SlackWork = Callable[[int], None]
+SlackWork = Callable[[int], object]  # its result is not used
 #: awaited before every lockstep tick on virtual time (the pytest plugin: tick only while the
 #: test awaits the bench, so sim time stands still while test code runs)
 TickGate = Callable[[], Awaitable[None]]

@@ -33,21 +33,11 @@ from collections.abc import Callable
 
 from hil import clock
 from hil.analysis.timing import LATE_US
-from hil.flight.tick import (
-    BootError,
-    Clock,
-    EndReason,
-    LatencySample,
-    Mode,
-    SlackWork,
-    TickDevices,
-    TickGate,
-    TickHook,
-    TickStats,
-)  # the tick loop's records and protocol (also imported from here by the run and tests)
-from hil.vtime.scheduler import ShimLost, VirtualClock, resolve_pending
-
-
+# the tick loop's records and protocol (the run and the tests import them from here too)
+from hil.flight.tick import (BootError, Clock, EndReason, LatencySample, Mode, SlackWork, TickDevices, TickGate,
+                             TickHook, TickStats)
+from hil.vtime.scheduler import VirtualClock, resolve_pending
+from hil.vtime.stall import ShimLost
 
 #: realtime: a tick that starts this late counts as late (one constant with hil timing)
 LATE_NS = round(LATE_US * 1000)

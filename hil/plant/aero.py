@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 
-from hil.plant.params import AeroParams, RotorParams
+from hil.plant.params_vehicle import AeroParams, RotorParams
 
 #: Gains closer to 1 than this are treated as 1 (above cutoff_m).
 CUTOFF_GAIN = 1e-4

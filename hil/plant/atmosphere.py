@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from mypy_extensions import mypyc_attr
 
-from hil.plant.params import EnvironmentParams
+from hil.plant.params_environment import EnvironmentParams
 
 #: ISA sea-level constants (U.S. Standard Atmosphere 1976 / ISO 2533).
 ISA_P0_PA = 101325.0

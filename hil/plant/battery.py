@@ -14,7 +14,7 @@ from __future__ import annotations
 import bisect
 import math
 
-from hil.plant.params import BatteryParams
+from hil.plant.params_vehicle import BatteryParams
 
 
 class Battery:

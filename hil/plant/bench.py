@@ -16,7 +16,8 @@ import sys
 import numpy as np
 
 from hil.clock import monotonic_ns
-from hil.plant.params import PlantParams, WindParams
+from hil.plant.params import PlantParams
+from hil.plant.params_environment import WindParams
 from hil.plant.plant import Plant
 
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from hil.plant.params import FrameLayout, RotorParams
+from hil.plant.params_vehicle import FrameLayout, RotorParams
 
 Vec3 = tuple[float, float, float]
 

@@ -35,7 +35,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hil.plant.params import VibrationParams
+from hil.plant.params_vehicle import VibrationParams
 from hil.plant.records import VibrationTone
 
 Vec3 = tuple[float, float, float]

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hil.plant.dryden import DrydenFilter, low_altitude_intensity
-from hil.plant.params import GustParams, GustShape, WindParams
+from hil.plant.params_environment import GustParams, GustShape, WindParams
 
 Vec3 = tuple[float, float, float]
 

@@ -8,11 +8,10 @@ is readable, no deadline has passed), and every byte either side wrote has been 
 Then nothing the flight code does depends on how fast the host is, and the next event is
 either the next tick or the earliest deadline the flight code is waiting for.
 
-Why the check is exact: a pty delivers through a kernel work item, but ``poll`` on either
-end first runs any pending work (n_tty_poll -> tty_buffer_flush_work). So a zero-timeout
-poll on the bench's own slave descriptor says whether the client could read now; the shim
-publishes the device numbers it waits on before it sleeps, and re-reads the slot's sequence
-number after the check to catch a thread that moved meanwhile.
+Why the check is exact: the bytes are settled by polls that run the ptys' pending delivery
+first (``hil/vtime/port_io.py``); the shim publishes the device numbers it waits on before
+it sleeps, and re-reads the slot's sequence number after the check to catch a thread that
+moved meanwhile.
 """
 
 from __future__ import annotations
@@ -20,15 +19,25 @@ from __future__ import annotations
 import asyncio
 import select
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from typing import Protocol
-
-from mypy_extensions import mypyc_attr
 
 from hil import clock
-from hil.frozen import by_fields
-from hil.transport.pty import WriteLog
 from hil.vtime.control import ControlBlock, ThreadStates, ThreadView, pid_alive
+from hil.vtime.port_io import PortBytes, ScheduledPort
+from hil.vtime.stall import ShimLost, Stall, shim_mapped
+
+# the port protocol and the stall records are used here and stay importable from here
+__all__ = [
+    "INLINE_BUDGET_S",
+    "INLINE_WAIT_S",
+    "SETTLE_FIRST_S",
+    "SETTLE_MAX_S",
+    "ScheduledPort",
+    "ShimLost",
+    "Stall",
+    "VirtualClock",
+    "resolve_pending",
+    "shim_mapped",
+]
 
 POLLIN, POLLPRI, POLLOUT = select.POLLIN, select.POLLPRI, select.POLLOUT
 #: re-check pauses (wall s) while a futex waiter is on its way to sleep
@@ -40,51 +49,6 @@ INLINE_WAIT_S = 0.002
 #: and the event loop runs at least this often (wall s) while the waits go on inline: a
 #: wait that needs the loop makes the turn, or else the next wait yields to it first
 INLINE_BUDGET_S = 0.010
-
-
-class ScheduledPort(Protocol):
-    """What the scheduler needs of a port (``hil.transport.pty.PtyPort``)."""
-
-    name: str
-
-    @property
-    def master_fd(self) -> int: ...
-    @property
-    def slave_fd(self) -> int: ...
-    @property
-    def rdev_key(self) -> int: ...
-    write_log: WriteLog | None
-    def read_available(self) -> bool: ...
-    @property
-    def writes_pending(self) -> bool: ...
-    def drain_queued(self) -> None: ...
-
-
-@mypyc_attr(native_class=False)  # compiled classes cannot derive from RuntimeError
-class ShimLost(RuntimeError):
-    """The flight-code process no longer has the clock shim mapped: it exec'd a program
-    without it (a wrapper that clears LD_PRELOAD, a set-user-ID helper). Its clocks are the
-    host's from then on and it will never report idle, so virtual time cannot go on."""
-
-
-def shim_mapped(pid: int, library: str) -> bool | None:
-    """Whether process ``pid`` has ``library`` mapped (None if it is gone)."""
-    try:
-        with open(f"/proc/{pid}/maps", encoding="utf-8", errors="replace") as f:
-            return any(library in line for line in f)
-    except OSError:
-        return None
-
-
-@dataclass(frozen=True)
-class Stall:
-    """What the flight code was doing when the bench had waited long for it (wall time)."""
-
-    waited_s: float
-    threads: tuple[ThreadView, ...]
-
-    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
 
 
 class VirtualClock:
@@ -105,21 +69,19 @@ class VirtualClock:
         inline_wait_s: float = INLINE_WAIT_S,
     ) -> None:
         self.ctl = ctl
-        self.ports = dict(ports)
-        self._by_key = {p.rdev_key: p for p in self.ports.values()}
-        self._master = {p.master_fd: p for p in self.ports.values()}
-        self._masters = list(self._master)
+        #: the ports' bytes; the idle check and the inline waits reach its maps directly
+        self._io = PortBytes(ports, ctl)
+        self.ports = self._io.ports
+        self._by_key = self._io.by_key
+        self._master = self._io.master
         #: what ends an idle wait: a shim notification or bytes from the flight code
-        self._wait_fds = [ctl.notify_fd, *self._masters]
+        self._wait_fds = [ctl.notify_fd, *self._io.masters]
         self.inline_wait_s = inline_wait_s
         #: idle waits made inline / through the event loop (the run's ``idle_waits`` metadata)
         self.inline_waits = 0
         self.loop_waits = 0
-        #: the bench's writes to these ports: whether anything was written since an idle
-        #: verdict, and which ports to flush (no per-port polling on every check)
-        self._written = WriteLog()
-        for p in self.ports.values():
-            p.write_log = self._written
+        #: the bench's writes to these ports (``PortBytes.written``)
+        self._written = self._io.written
         self.offset_ns = 0
         self.t_ns = 0
         self.pid: int | None = None
@@ -237,43 +199,7 @@ class VirtualClock:
     def flush_written(self) -> bool:
         """Make every byte the bench wrote since the last call readable by the client now (a
         zero-timeout poll runs the ptys' pending flush work); bumps the epoch if any."""
-        written = self._written.take()
-        if written:
-            select.select([p.slave_fd for p in written], [], [], 0)
-            self.ctl.bump_epoch()
-        return bool(written)
-
-    def _settle_io(self, wait_r: list[int], wait_w: list[int]) -> bool:
-        """Take in everything the flight code wrote, make every byte the bench wrote readable
-        at the client's end, and say whether a slave descriptor the flight code waits on
-        (``wait_r`` for reading, ``wait_w`` for writing) is ready once that is done.
-
-        One zero-timeout poll does all three: polling a pty end runs its pending flush work
-        before it reports, so each descriptor is judged after its own flush. A poll that found
-        flight-code bytes (a device may answer them) is followed by another, and the readiness
-        of the last one counts. Bumps the epoch if the bench had written anything."""
-        master = self._master
-        flushed = False
-        while True:
-            written = self._written.take()
-            fds = [*self._masters, *wait_r]
-            if written:
-                flushed = True
-                fds.extend(p.slave_fd for p in written)
-            readable, writable, _ = select.select(fds, wait_w, [], 0)
-            got = False
-            for fd in readable:
-                port = master.get(fd)
-                if port is not None:
-                    port.read_available()
-                    got = True
-            if not got:
-                break
-        if flushed:
-            self.ctl.bump_epoch()
-        if writable:
-            return True
-        return any(fd in wait_r for fd in readable)
+        return self._io.flush_written()
 
     # -- idle ---------------------------------------------------------------------------------------------
     def _on_notify(self) -> None:
@@ -328,7 +254,7 @@ class VirtualClock:
                     readable.append(port.slave_fd)
                 if events & POLLOUT:
                     writable.append(port.slave_fd)
-        ready = self._settle_io(readable, writable)
+        ready = self._io.settle(readable, writable)
         now = self.fc_ns(self.t_ns)
         epoch = self.ctl.epoch
         for t in threads:

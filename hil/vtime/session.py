@@ -20,7 +20,9 @@ from typing import TYPE_CHECKING
 from hil.vtime import abi
 from hil.vtime.control import ControlBlock
 from hil.vtime.preload import Fallback, check_program, shim_library
-from hil.vtime.scheduler import ScheduledPort, Stall, VirtualClock
+from hil.vtime.port_io import ScheduledPort
+from hil.vtime.scheduler import VirtualClock
+from hil.vtime.stall import Stall
 
 if TYPE_CHECKING:
     from hil.flight.process import FlightProcess

@@ -16,7 +16,7 @@ from hil.analysis.criteria_stream import CriteriaStream
 from hil.flight.runlog import STAMP_MAX_AGE_NS
 from hil.config.scenario import Criterion
 from hil.analysis.signal_stream import Held
-from hil.analysis.timing import StreamingStats
+from hil.analysis.timing_stream import StreamingStats
 from tests.unit.bench.traced import traced
 from hil.analysis.trace_stream import TraceStream
 

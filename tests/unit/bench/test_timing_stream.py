@@ -12,7 +12,7 @@ import pytest
 
 from hil.flight.tickloop import TickStats
 from hil.flight.devices import LatencySample
-from hil.analysis.timing import STREAM_RESOLUTION, LatencyStats, StreamingStats
+from hil.analysis.timing_stream import STREAM_RESOLUTION, LatencyStats, StreamingStats
 from tests.unit.bench.traced import traced
 
 TICK_NS = 2_500_000

@@ -18,6 +18,7 @@ from hil.plant.dryden import (
     low_altitude_intensity,
     stationary_covariance,
 )
+from hil.plant.hub_gusts import gust_offsets_B
 from hil.plant.wind import WindModel
 from tests.unit.plant.support import make_plant
 
@@ -235,7 +236,7 @@ def test_gust_differences_per_hub_are_the_gradient_in_body_axes() -> None:
     plant.set_kinematic_state((0.0, 0.0, -5.0), q_NB=q)
     g = np.array(plant._wind.gradient_N).reshape(3, 3)
     assert np.any(g != 0.0)
-    offsets = np.array(plant._gust_offsets_B(plant._x)).reshape(4, 3)
+    offsets = np.array(gust_offsets_B(plant._wind.gradient_N, plant._x, plant._hubs_B)).reshape(4, 3)
     r = np.array([[quat.rotate(q, (1.0, 0.0, 0.0)), quat.rotate(q, (0.0, 1.0, 0.0)), quat.rotate(q, (0.0, 0.0, 1.0))]])[0].T
     for hub, off in zip(plant._hubs_B, offsets, strict=True):
         np.testing.assert_allclose(off, r.T @ g @ r @ np.array(hub), atol=1e-12)

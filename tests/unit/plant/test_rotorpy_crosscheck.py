@@ -33,7 +33,7 @@ import pytest
 
 from hil.plant import AeroParams, PlantParams, RotorParams, WindParams
 from hil.plant.atmosphere import Atmosphere
-from hil.plant.params import EnvironmentParams
+from hil.plant.params_environment import EnvironmentParams
 from hil.plant.rotors import rotor_geometry
 from tests.unit.plant.support import make_plant
 

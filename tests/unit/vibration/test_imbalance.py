@@ -14,7 +14,7 @@ from hypothesis import given, settings
 
 from hil.config import ConfigError, validate
 from hil.plant import Plant, PlantParams, VibrationParams
-from hil.plant.params import ROTOR_ROTATING_MASS_KG, SensorMountParams, iso1940_imbalance_kgm
+from hil.plant.params_vehicle import ROTOR_ROTATING_MASS_KG, SensorMountParams, iso1940_imbalance_kgm
 from hil.plant.records import VibrationTone
 from hil.plant.vibration import RotorImbalance
 

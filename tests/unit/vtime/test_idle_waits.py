@@ -15,7 +15,8 @@ import pytest
 from hil.transport.pty import PtyPort
 from hil.vtime.control import ControlBlock
 from hil.vtime.preload import shim_library
-from hil.vtime.scheduler import Stall, VirtualClock
+from hil.vtime.scheduler import VirtualClock
+from hil.vtime.stall import Stall
 from tests.unit.vtime.harness import run_virtual
 
 pytestmark = pytest.mark.pty
