@@ -96,7 +96,7 @@ def run(
     except ConfigError as exc:
         _fail(str(exc))
 
-    from hil.flight.console_progress import ConsoleProgress
+    from hil.flight.progress import ConsoleProgress
 
     # a bar on a terminal, plain lines on a pipe or CI log
     progress = ConsoleProgress(console, f"{rig_obj.name}/{scenario_obj.name}", quiet=quiet)
