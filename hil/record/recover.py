@@ -32,11 +32,11 @@ _TORN = (McapError, EOFError, ValueError, struct.error, _ZstdError, zlib.error, 
 
 def recovered_path(src: Path | str) -> Path:
     """Where ``hil recover`` puts the result: ``run.mcap.part`` -> ``run.mcap``,
-    ``run.mcap`` -> ``run.recovered.mcap``."""
+    ``run.mcap`` (or any other name) -> ``run.recovered.mcap``: the result is an MCAP file."""
     p = Path(src)
     if p.name.endswith(".part"):
         return p.with_name(p.name[: -len(".part")])
-    return p.with_name(f"{p.stem}.recovered{p.suffix or '.mcap'}")
+    return p.with_suffix(".recovered.mcap")
 
 
 def recover(src: Path | str, dst: Path | str, *, chunk_size: int = 65536) -> int:

@@ -165,3 +165,10 @@ def test_garbage_and_empty_files_do_not_crash(tmp_path: Path) -> None:
         assert recover(src, dst) == 0
         validate_file(dst)
         assert "recovery" in read_metadata(dst)
+
+
+@pytest.mark.parametrize(("name", "default"), [("run.mcap.part", "run.mcap"), ("run.mcap", "run.recovered.mcap"),
+                                               ("run.bin", "run.recovered.mcap"), ("run", "run.recovered.mcap")])
+def test_the_default_output_is_an_mcap_beside_the_input(tmp_path: Path, name: str, default: str) -> None:
+    """``hil recover LOG`` and ``recovered_path`` agree: the copy is an MCAP file, named for one."""
+    assert recovered_path(tmp_path / name) == tmp_path / default
