@@ -19,8 +19,11 @@ class _Devices:
     """The DeviceSet calls the tick loop makes, with a fake flight code answering each sample
     ``answer_s`` after it is emitted (None: never)."""
 
-    def __init__(self, answer_s: float | None, *, sees_unread: bool = True) -> None:
+    def __init__(self, answer_s: float | None, *, sees_unread: bool = True, answer_after_next: bool = False) -> None:
         self.answer_s = answer_s
+        #: answer each sample only once the next one is out (a flight code a sample behind),
+        #: whatever the host's timing: not after a wall delay, which a loaded host stretches
+        self.answer_after_next = answer_after_next
         self.on_esc_command: Any = None
         self.answered: set[int] = set()
         self.latencies: list[Any] = []
@@ -43,6 +46,9 @@ class _Devices:
 
     def emit_imu(self, t_ns: int) -> tuple[bool, bool]:
         k = self.k = t_ns // TICK_NS
+        if self.answer_after_next and k > 0:
+            # runs when the tick loop next yields: after this sample's emission is booked
+            asyncio.get_running_loop().call_soon(self._answer, k - 1, t_ns - TICK_NS)
         if self.answer_s is not None:
             loop = asyncio.get_running_loop()
             loop.call_later(self.answer_s, self._answer, k, t_ns)
@@ -88,8 +94,8 @@ def test_no_command_does_not_hold_the_tick_and_is_counted() -> None:
 
 
 def test_a_command_after_the_next_sample_is_credited_to_none() -> None:
-    # each answer comes 1.5 ticks after its sample: after the next one, which is unread then
-    devices = _Devices(answer_s=1.5 * TICK_NS / 1e9)
+    # each answer comes after the next sample is out, which is unread then
+    devices = _Devices(answer_s=None, answer_after_next=True)
     loop = _loop(devices, 20, [])
     asyncio.run(loop.run())
     assert loop.stats.no_command == 19
@@ -99,7 +105,7 @@ def test_a_command_after_the_next_sample_is_credited_to_none() -> None:
 
 def test_where_the_client_end_is_unseen_the_first_command_after_a_sample_answers_it() -> None:
     # an attached serial line: the bench cannot tell, and credits as it always did
-    devices = _Devices(answer_s=1.5 * TICK_NS / 1e9, sees_unread=False)
+    devices = _Devices(answer_s=None, sees_unread=False, answer_after_next=True)
     loop = _loop(devices, 20, [])
     asyncio.run(loop.run())
     assert loop.stats.late_commands == 0 and len(loop.stats.latencies_ns) > 10
