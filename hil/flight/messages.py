@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from hil.plant import quat
+
 RAD2DEG = 180.0 / math.pi
 
 
@@ -107,23 +109,12 @@ def pose_payload(stamp: tuple[int, int], st: Any) -> dict[str, Any]:
     }
 
 
-def _qmul(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float, float]:
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return (
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    )
-
-
 _H = math.sqrt(0.5)
 #: rotation taking NED vectors to ENU (180 deg about the axis (1,1,0)/sqrt2)
-Q_ENU_NED = (0.0, _H, _H, 0.0)
+Q_ENU_NED: quat.Quat = (0.0, _H, _H, 0.0)
 #: FLU body vectors to FRD (180 deg about x)
-Q_FRD_FLU = (0.0, 1.0, 0.0, 0.0)
+Q_FRD_FLU: quat.Quat = (0.0, 1.0, 0.0, 0.0)
 
 
-def ned_frd_to_enu_flu(q_NB: tuple[float, ...]) -> tuple[float, float, float, float]:
-    return _qmul(_qmul(Q_ENU_NED, q_NB), Q_FRD_FLU)
+def ned_frd_to_enu_flu(q_NB: quat.Quat) -> quat.Quat:
+    return quat.mul(quat.mul(Q_ENU_NED, q_NB), Q_FRD_FLU)

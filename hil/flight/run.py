@@ -204,9 +204,10 @@ async def run_flight_async(
     clock_note = ""
     if mode is Mode.LOCKSTEP:
         wanted = rig.flight.virtual_time if virtual_time is None else virtual_time
+        ptys = {n: p for n, p in ports.items() if isinstance(p, PtyPort)}
+        assert len(ptys) == len(ports), "a real serial line in lockstep (refuse_lockstep let it through)"
         opened: VirtualTime | Fallback = (
-            VirtualTime.open(run_dir, {n: p for n, p in ports.items() if isinstance(p, PtyPort)}, argv,
-                             on_stall=lambda st: note(describe_stall(st)))
+            VirtualTime.open(run_dir, ptys, argv, on_stall=lambda st: note(describe_stall(st)))
             if wanted else Fallback("virtual time switched off (rig [flight] virtual_time or --wall-clock)")
         )
         if isinstance(opened, Fallback):

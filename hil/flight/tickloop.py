@@ -250,13 +250,7 @@ class TickLoop:
             await self._advance_to(vc, t_ns)
             if self.flight_exited.is_set():
                 return EndReason.FLIGHT_EXITED
-            work_start = clock.monotonic_ns()
-            self.k, self.t_ns = k, t_ns
-            if self.before_tick is not None:
-                self.before_tick(k, t_ns)
-            devices.emit_rc_early(t_ns)
-            devices.actuate_and_step(t_ns)
-            devices.latch_analog(t_ns)
+            work_start = self._begin_tick(k, t_ns)
             vc.flush_written()  # everything but the sample is readable before the sample wakes it
             self._expect_command(k)
             emitted, due = devices.emit_imu(t_ns)
@@ -278,13 +272,32 @@ class TickLoop:
                 else:
                     stats.latencies_ns.append(arrival[1] - t_ns)
                     devices.note_latency(LatencySample(t_ns, t_emit, arrival[0], arrival[1], cpu_ns))
-            after = clock.monotonic_ns()
-            devices.finish_tick(t_ns)
-            if self.after_tick is not None:
-                self.after_tick(k, t_ns)
-            stats.tick_cost_ns.append(work + clock.monotonic_ns() - after)
-            stats.ticks += 1
+            self._end_tick(k, t_ns, work)
         return EndReason.COMPLETED
+
+    def _begin_tick(self, k: int, t_ns: int) -> int:
+        """Steps 1-4 of tick ``k`` at sim ``t_ns``, every clock alike: the scenario's actions, RC
+        edges (written early: the kernel delivers them while the plant steps), the plant, the
+        analog latch. Returns the host ns the tick's work began."""
+        work_start = clock.monotonic_ns()
+        self.k, self.t_ns = k, t_ns
+        if self.before_tick is not None:
+            self.before_tick(k, t_ns)
+        devices = self.devices
+        devices.emit_rc_early(t_ns)
+        devices.actuate_and_step(t_ns)
+        devices.latch_analog(t_ns)
+        return work_start
+
+    def _end_tick(self, k: int, t_ns: int, work_ns: int) -> None:
+        """Step 7 of tick ``k``: the link, the recording; the tick's cost is ``work_ns`` (before
+        the wait for the flight code) plus this bookkeeping."""
+        after = clock.monotonic_ns()
+        self.devices.finish_tick(t_ns)
+        if self.after_tick is not None:
+            self.after_tick(k, t_ns)
+        self.stats.tick_cost_ns.append(work_ns + clock.monotonic_ns() - after)
+        self.stats.ticks += 1
 
     # Methods, not assignments in the loop: compiled (mypyc), a read of ``self._arrival`` right
     # after ``self._arrival = None`` in the same function is checked as None, although
@@ -320,13 +333,7 @@ class TickLoop:
                     stats.lateness_ns.append(lateness)
                     if lateness > LATE_NS:
                         stats.late_ticks += 1
-                work_start = clock.monotonic_ns()
-                self.k, self.t_ns = k, t_ns
-                if self.before_tick is not None:
-                    self.before_tick(k, t_ns)
-                devices.emit_rc_early(t_ns)  # delivered by the kernel while the plant steps
-                devices.actuate_and_step(t_ns)
-                devices.latch_analog(t_ns)
+                work_start = self._begin_tick(k, t_ns)
                 if pacer is None:
                     # lockstep only: the flight code is blocked on the IMU, so the RC bytes
                     # can be seen arriving; in realtime it reads them whenever they come
@@ -358,12 +365,7 @@ class TickLoop:
                     self._rt_emit = (t_ns, t_emit, lateness)
                     if pacer is not None:
                         await self._await_answer(loop, stats.wall_start_ns + t_ns + round(tick_ns * RT_ANSWER_SHARE))
-                after = clock.monotonic_ns()
-                devices.finish_tick(t_ns)
-                if self.after_tick is not None:
-                    self.after_tick(k, t_ns)
-                stats.tick_cost_ns.append(work + clock.monotonic_ns() - after)
-                stats.ticks += 1
+                self._end_tick(k, t_ns, work)
                 if pacer is not None and self.slack_work is not None:
                     self.slack_work(stats.wall_start_ns + t_ns + tick_ns)
             return EndReason.COMPLETED
