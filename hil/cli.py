@@ -71,7 +71,14 @@ def run(
     # the recorder): an error must answer in well under half a second.
     if mode not in _MODES:
         _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
-    from hil.config import ConfigError
+    from hil.config import ConfigError, resolve_rig, resolve_scenario
+
+    try:  # the files exist: found before the rig's validation imports the device models
+        rig_file = resolve_rig(rig)
+        if scenario is not None:
+            resolve_scenario(scenario, rig_file)
+    except ConfigError as exc:
+        _fail(str(exc))
     from hil.config.rig import load_rig
     from hil.config.scenario import load_scenario
     from hil.flight.scenario_runner import ScenarioRunner

@@ -14,8 +14,6 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, TypeVar
 
-import pydantic
-
 T = TypeVar("T")
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -51,6 +49,8 @@ def validate(cls: type[T], data: Mapping[str, Any], *, file: Path | str, section
 
     Raises :class:`ConfigError` listing every problem as ``file: [section] key: reason``.
     """
+    import pydantic  # here, not at the top: finding a file must not cost pydantic's import
+
     try:
         return pydantic.TypeAdapter(cls).validate_python(dict(data))
     except pydantic.ValidationError as exc:

@@ -90,15 +90,16 @@ def _run_compiler(tmp: Path, root: Path, opt_level: str, jobs: int,
                          % (proc.returncode, "\n".join(tail)))
 
 
-def build(*, opt_level: str = DEFAULT_OPT_LEVEL, jobs: int | None = None,
+def build(*, opt_level: str = DEFAULT_OPT_LEVEL, jobs: int | None = None, directory: Path | None = None,
           progress: Callable[[int, int], None] = lambda done, total: None) -> manifest_mod.Manifest:
-    """Compile into the build directory (hil.native.build_dir()) and return its manifest.
+    """Compile into ``directory`` (default: hil.native.build_dir(), where ``import hil`` looks)
+    and return its manifest.
 
     ``progress(done, total)``: extension modules compiled so far (0 of N once the C exists).
     ``jobs``: parallel compiler processes (default: the CPUs this process may use)."""
     preflight()
     root = project_root()
-    final = build_dir()
+    final = directory or build_dir()
     final.parent.mkdir(parents=True, exist_ok=True)
     stamps = {rel: manifest_mod.SourceStamp.of(root / rel) for rel in watched_sources(root)}
     started_ns = clock.wall_ns()

@@ -1,73 +1,94 @@
-"""The compiled device models, plant and tick path fly exactly like their Python sources.
+"""The compiled build flies exactly like the Python sources.
 
-``pip install`` compiles ``emulators``, ``hil.plant`` and the bench's tick path (the tick
-loop, the device wiring, the scheduler, the run logger, the streaming trace and criteria) with
-mypyc (setup.py); the ``.py`` files stay the reference. Here the same lockstep flight runs
-twice in fresh processes: once on the installed (compiled) modules, once on a copy of the
-sources with no compiled module in it. Every byte on the control wires, every plant truth
-message and every criterion's verdict on the flight must be the same.
+``hil build`` compiles ``emulators``, ``hil.plant`` and the bench's tick path (the tick loop,
+the device wiring, the scheduler, the run logger, the streaming trace and criteria) with mypyc;
+the ``.py`` files stay the reference. The same lockstep flight runs twice in fresh processes,
+once on the compiled build and once interpreted (``HIL_NATIVE=0``). Every byte on the control
+wires, every plant truth message and every criterion's verdict must be the same.
+
+The flight (tests/system/data/equivalence.toml, 22 s) covers what a build could change: mean
+wind with Dryden turbulence, a wire fault (ADC bit errors) and the driver's resync, an altitude
+step, the RC through the SBUS front-end, and the ground XBee in transparent mode.
+
+Where the environment has no fresh compiled build, the test compiles one into a temporary
+directory first (a few minutes): the suite checks both builds on any machine that can compile.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+import tomli_w
 
-import emulators
+from hil import native
+from hil.config import load_toml
+from hil.flight.run_files import deep_merge
+from hil.native.build import BuildError, build, preflight
+from hil.native.sources import project_root
 from hil.record import iter_messages, read_wire
 from tests.system.test_determinism import CONTROL_WIRES
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
 
-ROOT = Path(emulators.__file__).resolve().parent.parent
-#: a flight that moves the plant (climb and settle) and exercises every wire
-SCENARIO, DURATION_S = "altitude-step", 4.0
+ROOT = project_root()
+SCENARIO = Path(__file__).parent / "data" / "equivalence.toml"
+#: the paper's rig with the SBUS front-end and a transparent ground XBee
+RIG_OVERRIDES = {
+    "rc": {"frontend": "sbus"},
+    "telemetry": {"ground": {"ap": 0}},
+    "flight": {"overrides": {"rc": {"frontend": "sbus"}}},
+}
+#: the modules that say which way a process ran
+PROBES = ("emulators.base", "emulators.rc.sbus", "emulators.xbee.module", "hil.plant.plant", "hil.plant.dryden",
+          "hil.flight.tickloop", "hil.flight.devices", "hil.analysis.criteria_stream", "hil.faults.wire")
 
 FLY = """
-import json, sys
+import importlib, json, sys
 from pathlib import Path
-import emulators.base, emulators.mcp3204.device, hil.plant.plant, hil.flight.tickloop, hil.flight.devices, hil.analysis.criteria_stream
 from hil.flight.tickloop import Mode
 from hil.flight.run import run_flight
-res = run_flight(None, sys.argv[1], mode=Mode.LOCKSTEP, duration_s=float(sys.argv[2]), out_dir=Path(sys.argv[3]))
+res = run_flight(sys.argv[1], sys.argv[2], mode=Mode.LOCKSTEP, out_dir=Path(sys.argv[3]))
 # the flight's criteria (host timing figures left out: they measure the host, not the flight)
 criteria = [(c.name, repr(c.value), c.passed, c.detail) for c in res.criteria if not c.signal.startswith("timing.")]
-print(json.dumps({"end": res.end_reason.value, "log": str(res.log_path), "criteria": criteria,
-                  "modules": [emulators.base.__file__, emulators.mcp3204.device.__file__, hil.plant.plant.__file__,
-                              hil.flight.tickloop.__file__, hil.flight.devices.__file__, hil.analysis.criteria_stream.__file__]}))
+files = {name: str(getattr(importlib.import_module(name), "__file__", "")) for name in sys.argv[4].split(",")}
+print(json.dumps({"end": res.end_reason.value, "sim_s": res.sim_s, "log": str(res.log_path), "criteria": criteria,
+                  "files": files}))
 """
 
 
-def is_compiled(path: str) -> bool:
-    return not path.endswith(".py")
+@pytest.fixture(scope="session")
+def compiled_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A fresh compiled build: the environment's, or one compiled for this session."""
+    if native.state().compiled:
+        return native.build_dir()
+    try:
+        preflight()
+    except BuildError as exc:
+        pytest.skip(f"cannot compile here: {exc}")
+    directory = tmp_path_factory.mktemp("native") / "build"
+    build(directory=directory)
+    return directory
 
 
-def interpreted_copy(dest: Path) -> Path:
-    """The project's Python sources (and data, and the clock shim, which is C) without any
-    mypyc-compiled module."""
-    compiled = shutil.ignore_patterns("*.so", "__pycache__")
-    for package in ("emulators", "hil", "flightcode"):
-        shutil.copytree(ROOT / package, dest / package, ignore=compiled)
-    shutil.copytree(ROOT / "rigs", dest / "rigs")
-    for shim in (ROOT / "hil" / "vtime").glob("_shim*.so"):
-        shutil.copy2(shim, dest / "hil" / "vtime" / shim.name)
-    return dest
+def rig_file(dest: Path) -> Path:
+    rig = ROOT / "rigs" / "paper-quad.toml"
+    data = deep_merge(load_toml(rig), RIG_OVERRIDES)
+    data["flight"]["config"] = str((rig.parent / data["flight"]["config"]).resolve())
+    path = dest / "paper-quad.toml"
+    path.write_text(tomli_w.dumps(data))
+    return path
 
 
-def fly(out_dir: Path, pythonpath: Path | None) -> dict:
-    env = dict(os.environ)
-    if pythonpath is not None:
-        env["PYTHONPATH"] = os.pathsep.join([str(pythonpath), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
-    proc = subprocess.run(
-        [sys.executable, "-c", FLY, SCENARIO, str(DURATION_S), str(out_dir)],
-        env=env, cwd=out_dir.parent, capture_output=True, text=True, timeout=240,
-    )
+def fly(rig: Path, out_dir: Path, env_over: dict[str, str]) -> dict:
+    env = {k: v for k, v in os.environ.items() if k not in ("HIL_NATIVE", "HIL_NATIVE_DIR")}
+    env.update(env_over)
+    proc = subprocess.run([sys.executable, "-c", FLY, str(rig), str(SCENARIO), str(out_dir), ",".join(PROBES)],
+                          env=env, cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
@@ -86,20 +107,19 @@ def sim_messages(log: Path) -> list[tuple[str, str]]:
     return out
 
 
-def test_compiled_and_interpreted_fly_the_same(tmp_path: Path) -> None:
-    compiled = fly(tmp_path / "compiled", None)
-    if not all(is_compiled(p) for p in compiled["modules"]):
-        pytest.skip(f"this install is not compiled (built with HIL_PURE_PYTHON=1?): {compiled['modules']}")
-    source = interpreted_copy(tmp_path / "src")
-    interpreted = fly(tmp_path / "interpreted", source)
-    assert not any(is_compiled(p) for p in interpreted["modules"]), interpreted["modules"]
-    assert all(p.startswith(str(source)) for p in interpreted["modules"]), interpreted["modules"]
+def test_compiled_and_interpreted_fly_the_same(tmp_path: Path, compiled_dir: Path) -> None:
+    rig = rig_file(tmp_path)
+    compiled = fly(rig, tmp_path / "compiled", {"HIL_NATIVE_DIR": str(compiled_dir)})
+    interpreted = fly(rig, tmp_path / "interpreted", {"HIL_NATIVE": "0"})
+    assert all(str(compiled_dir) in f and f.endswith(".so") for f in compiled["files"].values()), compiled["files"]
+    assert all(f.endswith(".py") for f in interpreted["files"].values()), interpreted["files"]
 
     assert compiled["end"] == interpreted["end"] == "completed"
+    assert compiled["sim_s"] >= 20.0
     assert compiled["criteria"], "the scenario has criteria on the flight"
     assert compiled["criteria"] == interpreted["criteria"]
     a, b = Path(compiled["log"]), Path(interpreted["log"])
-    for port, direction in CONTROL_WIRES:
+    for port, direction in [*CONTROL_WIRES, ("telemetry", "rx"), ("ground", "tx")]:
         wa, wb = read_wire(a, port, direction), read_wire(b, port, direction)
         assert len(wa) > 0, (port, direction)
         assert wa == wb, f"{port}/{direction}: compiled and interpreted differ ({len(wa)} vs {len(wb)} bytes)"
