@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING
 from rich.console import Console
 from rich.table import Table
 
+from hil import native
+
 if TYPE_CHECKING:
     from hil.config.rig import Rig
     from hil.flight.run_result import RunResult
@@ -40,6 +42,7 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
     console.print(f"  {clock_line}" + (f": {result.clock_note}" if result.clock_note else ""), highlight=False)
     if result.cpu_latency is not None:
         console.print(f"  host: {result.cpu_latency.describe()}", highlight=False)
+    console.print(f"  device models, plant, tick path: {native.describe()}", highlight=False)
     for note in result.notes:
         console.print(f"  [yellow]note:[/] {note}", highlight=False)
     if result.criteria:
