@@ -45,7 +45,7 @@ RIG_OVERRIDES = {
 }
 #: the modules that say which way a process ran
 PROBES = ("emulators.base", "emulators.rc.sbus", "emulators.xbee.module", "hil.plant.plant", "hil.plant.dryden",
-          "hil.flight.tickloop", "hil.flight.devices", "hil.analysis.criteria_stream", "hil.faults.wire")
+          "hil.flight.tickloop", "hil.flight.devices", "hil.analysis.criteria_stream")
 
 FLY = """
 import importlib, json, sys
@@ -90,7 +90,7 @@ def fly(rig: Path, out_dir: Path, env_over: dict[str, str]) -> dict:
     proc = subprocess.run([sys.executable, "-c", FLY, str(rig), str(SCENARIO), str(out_dir), ",".join(PROBES)],
                           env=env, cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return {**json.loads(proc.stdout.strip().splitlines()[-1]), "stderr": proc.stderr[-2000:]}
 
 
 #: the plant's truth and what the emulators made of it, in sim time
@@ -111,7 +111,7 @@ def test_compiled_and_interpreted_fly_the_same(tmp_path: Path, compiled_dir: Pat
     rig = rig_file(tmp_path)
     compiled = fly(rig, tmp_path / "compiled", {"HIL_NATIVE_DIR": str(compiled_dir)})
     interpreted = fly(rig, tmp_path / "interpreted", {"HIL_NATIVE": "0"})
-    assert all(str(compiled_dir) in f and f.endswith(".so") for f in compiled["files"].values()), compiled["files"]
+    assert all(str(compiled_dir) in f and f.endswith(".so") for f in compiled["files"].values()), compiled
     assert all(f.endswith(".py") for f in interpreted["files"].values()), interpreted["files"]
 
     assert compiled["end"] == interpreted["end"] == "completed"
