@@ -8,7 +8,6 @@ true."""
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from hil.flight.tickloop import EndReason, Mode
@@ -25,19 +24,18 @@ async def test_a_late_command_is_credited_to_no_sample(fly) -> None:
     result = await fly("hover", duration_s=1.0, mode=Mode.REALTIME, stress_adc_delay_us=HOLD_US)
     assert result.end_reason is EndReason.COMPLETED, explain(result)
     t = result.timing
-    assert t["late_commands"] > 0
+    # Every command needs a reply held 3 ms, so it comes after the next sample is out: the bench
+    # counts it late and credits it to no sample. Crediting the first command after each sample
+    # (the defect this guards) would count none late. How many samples are answered at all, and
+    # how fast, depends on the host's speed (the flight code skips the ADC read of a sample while
+    # a reply is still owed, and answers that one at once): not asserted here. The crediting rule
+    # itself is proven on a scripted timeline in tests/unit/bench/test_realtime_tick.py.
+    assert t["late_commands"] > 0.25 * t["ticks"]
     assert result.log_path is not None
     ticks = read_topic(result.log_path, "/hil/timing/tick")
     answered = ticks["esc_arrival_host_ns"] > 0
     response_us = (ticks["esc_arrival_host_ns"][answered] - ticks["imu_emit_host_ns"][answered]) / 1e3
-    # Most commands come after the next sample was written, while it is still unread: they
-    # are counted late, credited to no sample. Crediting the first command after each sample
-    # instead gave ~85 % of the samples a response of 0.1-0.4 ms, under the 3 ms hold. The
-    # few left are true: the flight code answers a sample without an ADC read while a late
-    # reply is owed (its driver's "no_transfer"), and it had read that sample.
-    short = int((response_us < HOLD_US).sum())
-    assert short < 0.25 * t["ticks"], np.sort(response_us)[:10]
-    assert t["late_commands"] > 0.5 * t["ticks"]
+    assert (response_us > 0).all()  # no sample credited with a command from before it was sent
     assert t["rt_no_command"] + int(answered.sum()) >= t["ticks"] - 2  # every sample: answered or missed
 
 
