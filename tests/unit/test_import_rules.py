@@ -86,18 +86,6 @@ def test_hil_packages_keep_to_their_jobs(path: Path) -> None:
     assert not bad, f"{path}: {package} may not import {sorted(forbidden)} (docs/architecture.md): {bad}"
 
 
-@pytest.mark.parametrize("path", _modules("hil") + _modules("tests") + _modules("examples"),
-                         ids=lambda p: str(p.relative_to(ROOT)))
-def test_nothing_of_ours_imports_a_moved_path(path: Path) -> None:
-    from hil._moved import MOVED
-
-    if path.name == "test_moved_paths.py":
-        return
-    # the types-only imports too: they are read by mypy and by people
-    bad = [(line, mod) for line, mod in _runtime_imports(path, types_too=True) if mod in MOVED]
-    assert not bad, f"{path}: import from the new path (hil/_moved.py): {bad}"
-
-
 @pytest.mark.parametrize("path", _modules("flightcode"), ids=lambda p: str(p.relative_to(ROOT)))
 def test_flightcode_imports_only_its_allowed_set(path: Path) -> None:
     allowed = STDLIB | {"numpy", "filterpy", "control", "serial", "scipy", "flightcode"}
