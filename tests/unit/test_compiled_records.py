@@ -51,7 +51,7 @@ from emulators.xbee.module import RfPacket
 from emulators.xsens.errors import Measured
 from emulators.xsens.events import CommandHandled, SampleSent
 from emulators.xsens.sample import Built, Ctx
-from hil.flight.devices import LatencySample
+from hil.analysis.timing_stream import LatencySample
 from hil.plant.records import PlantState, SensorTruth
 from hil.transport.base import WireRecord
 from hil.vtime.control import ThreadView
