@@ -47,7 +47,7 @@ from emulators.rc.ppm import PpmEdge, PpmFrame
 from emulators.rc.sbus import PpmDecoded
 from emulators.spidriver.device import SpiDriverSpi
 from emulators.xbee.link import RfDelivered
-from emulators.xbee.module import RfPacket
+from emulators.xbee.packets import RfPacket
 from emulators.xsens.errors import Measured
 from emulators.xsens.events import CommandHandled, SampleSent
 from emulators.xsens.sample import Built, Ctx
