@@ -40,7 +40,7 @@ from typing import Any
 
 import pytest
 
-from emulators.buspirate.device import BusPirateSpi
+from emulators.buspirate.events import BusPirateSpi
 from emulators.maestro.device import TargetsSet
 from emulators.mcp3204.device import Mcp3204Conversion
 from emulators.rc.ppm import PpmEdge, PpmFrame
