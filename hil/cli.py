@@ -254,7 +254,7 @@ def perf(
 
     Exit status: 0 the table was printed (the figures are information, not a verdict).
     """
-    from hil.host.perf import measure
+    from hil.perf.measure import measure
 
     rep = measure(lockstep_runs=runs, lockstep_s=seconds, realtime_s=seconds)
     table = Table(title="hil perf (medians; shared machines are noisy: compare ratios)")

@@ -40,18 +40,18 @@ from typing import Any
 
 import pytest
 
-from emulators.buspirate.device import BusPirateSpi
+from emulators.buspirate.events import BusPirateSpi
 from emulators.maestro.device import TargetsSet
 from emulators.mcp3204.device import Mcp3204Conversion
 from emulators.rc.ppm import PpmEdge, PpmFrame
 from emulators.rc.sbus import PpmDecoded
 from emulators.spidriver.device import SpiDriverSpi
 from emulators.xbee.link import RfDelivered
-from emulators.xbee.module import RfPacket
+from emulators.xbee.packets import RfPacket
 from emulators.xsens.errors import Measured
 from emulators.xsens.events import CommandHandled, SampleSent
 from emulators.xsens.sample import Built, Ctx
-from hil.flight.devices import LatencySample
+from hil.analysis.timing_stream import LatencySample
 from hil.plant.records import PlantState, SensorTruth
 from hil.transport.base import WireRecord
 from hil.vtime.control import ThreadView
