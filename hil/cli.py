@@ -14,7 +14,6 @@
 
 from __future__ import annotations
 
-import signal
 import sys
 from pathlib import Path
 from typing import Annotated, Optional
@@ -41,6 +40,16 @@ def _fail(message: str, code: int = 2) -> None:
     # escaped: messages quote file syntax such as "[[faults]]", which is not markup
     err_console.print(f"[bold red]error:[/] {escape(message)}", soft_wrap=True)
     raise typer.Exit(code)
+
+
+def _log_file(log: Path) -> None:
+    """Exit 2 with one sentence unless ``log`` is a complete run log (hil/record/log_check.py)."""
+    from hil.record.log_check import LogError, check_log
+
+    try:
+        check_log(log)
+    except LogError as exc:
+        _fail(str(exc))
 
 
 @app.command()
@@ -105,37 +114,19 @@ def run(
         _fail(str(exc))
 
     from hil.flight.progress import ConsoleProgress
+    from hil.flight.signals import cancelled_by_signals
 
     # a bar on a terminal, plain lines on a pipe or CI log
     progress = ConsoleProgress(console, f"{rig_obj.name}/{scenario_obj.name}", quiet=quiet)
 
     async def main() -> object:
         progress.begin()
-        current = asyncio.current_task()
-        loop = asyncio.get_running_loop()
-        assert current is not None
-        loop.add_signal_handler(signal.SIGINT, current.cancel)
-        loop.add_signal_handler(signal.SIGTERM, current.cancel)
-        try:
-            return await run_flight_async(
-                rig_obj,
-                scenario_obj,
-                mode=run_mode,
-                seed=seed,
-                duration_s=duration,
-                out_dir=out,
-                record=not no_record,
-                progress=progress,
-                scenario_source=source,
-                virtual_time=False if wall_clock else None,
-                stress_cpu=stress_cpu,
-                stress_adc_delay_us=stress_adc_delay_us,
-                attach=attach_map,
-                started_ns=started_ns,
-            )
-        finally:
-            loop.remove_signal_handler(signal.SIGINT)
-            loop.remove_signal_handler(signal.SIGTERM)
+        return await cancelled_by_signals(run_flight_async(
+            rig_obj, scenario_obj, mode=run_mode, seed=seed, duration_s=duration, out_dir=out,
+            record=not no_record, progress=progress, scenario_source=source,
+            virtual_time=False if wall_clock else None, stress_cpu=stress_cpu,
+            stress_adc_delay_us=stress_adc_delay_us, attach=attach_map, started_ns=started_ns,
+        ))
 
     try:
         with progress.bar:
@@ -189,16 +180,18 @@ def recover(
 ) -> None:
     """Salvage a killed run's MCAP: every complete chunk, metadata and attachments.
 
-    Exit status: 0 the file was written (it says how many messages were kept); 2 no such file.
+    Exit status: 0 the file was written (it says how many messages were kept); 2 no such
+    file, not an MCAP file, or an output that is the input (nothing written).
     """
     from hil.record import recover as do_recover
     from hil.record import recovered_path
+    from hil.record.log_check import LogError
 
-    if not log.exists():
-        _fail(f"{log}: no such file")
-    if out is None:
-        out = recovered_path(log)
-    n = do_recover(log, out)
+    out = out or recovered_path(log)
+    try:
+        n = do_recover(log, out)
+    except (LogError, OSError) as exc:
+        _fail(str(exc))
     console.print(f"recovered {n} messages -> {out}")
 
 
@@ -209,12 +202,11 @@ def report(
 ) -> None:
     """Plot a run: attitude, altitude, motors and timing, as PNG files.
 
-    Exit status: 0 the plots were written (their paths are printed); 2 no such file.
+    Exit status: 0 the plots were written (their paths are printed); 2 not a readable run log.
     """
     from hil.analysis.report import make_report
 
-    if not log.exists():
-        _fail(f"{log}: no such file")
+    _log_file(log)
     for path in make_report(log, out or log.parent):
         console.print(str(path))
 
@@ -228,14 +220,13 @@ def timing(
     """Timing of the 400 Hz loop from a log: period, response latency, jitter, misses, compute.
 
     Exit status: 0 every sample answered within the budget (and, for a realtime run, realtime
-    held); 1 a sample over the budget or without an ESC command, or realtime not held; 2 no
-    such file.
+    held); 1 a sample over the budget or without an ESC command, or realtime not held; 2 not
+    a readable run log (missing, torn, damaged, not an MCAP file, or another tool's MCAP).
     """
     from hil.analysis.timing import analyze_log, plot_latency
     from hil.analysis.timing_table import print_timing
 
-    if not log.exists():
-        _fail(f"{log}: no such file")
+    _log_file(log)
     rep = analyze_log(log, budget_us)
     print_timing(console, rep, log.name)
     out = plot_latency(log, png or log.with_name(log.name.removesuffix(".mcap") + "_timing.png"), budget_us)
@@ -307,7 +298,7 @@ def replay(
     """Play a recorded session's device bytes back on ptys, or --verify it by re-running it.
 
     Exit status: 0 played back (or --verify: the re-run matched); 1 --verify found a
-    divergence; 2 no such file, or a log that cannot be replayed.
+    divergence; 2 not a readable run log, or a log that cannot be replayed.
     """
     import asyncio
 
@@ -316,8 +307,7 @@ def replay(
     from hil.fleet.replay_error import ReplayError
     from hil.fleet.verify import verify
 
-    if not log.exists():
-        _fail(f"{log}: no such file")
+    _log_file(log)
     try:
         if verify_:
             result = verify(log, out)
