@@ -65,13 +65,15 @@ def run(
     stress_cpu: Annotated[int, typer.Option(help="Timing stress: CPU-bound processes beside the flight code.")] = 0,
     stress_adc_delay_us: Annotated[float, typer.Option(help="Timing stress: hold every ADC bridge reply back (wall us).")] = 0.0,
     wall_clock: Annotated[bool, typer.Option("--wall-clock", help="Lockstep with the flight code on the host clock (no clock shim; docs/time.md). For comparisons only: load then changes the flight.")] = False,
+    require_vt: Annotated[bool, typer.Option("--require-virtual-time", help="Lockstep: exit 2 rather than fall back to the host clock (shim missing, static binary, LD_PRELOAD dropped); also the rig's [flight] require_virtual_time.")] = False,
     attach: Annotated[list[str] | None, typer.Option("--attach", help="PORT=DEVICE: this port on a real serial device or URL (/dev/ttyUSB0, socket://host:port, rfc2217://host:port); repeatable; realtime only.")] = None,
 ) -> None:
     """Fly the flight code against the emulated vehicle and write one MCAP log.
 
     Exit status: 0 the run completed and every criterion passed; 1 a criterion failed or the
-    run did not complete (flight code exited, boot failed, interrupted); 2 bad input (rig,
-    scenario, option, a fault the rig refuses): nothing was started.
+    run did not complete (flight code exited, boot failed, interrupted, a resource could not be
+    had); 2 bad input (rig, scenario, option, a fault the rig refuses, a [flight] override the
+    flight code refuses, virtual time required but not available).
     """
     from hil import clock
 
@@ -103,7 +105,7 @@ def run(
 
     from hil.config.attach import parse_attach_flags, refuse_lockstep, resolve_attachments
     from hil.flight.tickloop import Mode
-    from hil.flight.run import PORTS, run_flight_async
+    from hil.flight.run import PORTS, RunStartError, run_flight_async
     from hil.analysis.summary import print_summary
 
     run_mode = Mode(mode)
@@ -124,15 +126,17 @@ def run(
         return await cancelled_by_signals(run_flight_async(
             rig_obj, scenario_obj, mode=run_mode, seed=seed, duration_s=duration, out_dir=out,
             record=not no_record, progress=progress, scenario_source=source,
-            virtual_time=False if wall_clock else None, stress_cpu=stress_cpu,
+            virtual_time=False if wall_clock else None, require_virtual_time=require_vt or None, stress_cpu=stress_cpu,
             stress_adc_delay_us=stress_adc_delay_us, attach=attach_map, started_ns=started_ns,
         ))
 
     try:
         with progress.bar:
             result = asyncio.run(main())
-    except ConfigError as exc:  # refused before anything was created (e.g. a fault after the end)
+    except ConfigError as exc:  # refused before anything was created, or virtual time required and missing
         _fail(str(exc))
+    except RunStartError as exc:  # a resource could not be had; what was acquired is released
+        _fail(str(exc), 1)
     print_summary(console, result, rig_obj, scenario_obj)  # type: ignore[arg-type]
     raise typer.Exit(0 if result.passed else 1)  # type: ignore[attr-defined]
 
