@@ -7,8 +7,8 @@ out-of-range values are errors naming the file, the dotted key and the reason, e
 
     vehicle.toml: attitude.law: must be one of 'generalised', 'paper_literal' (got 'fast')
 
-The dataclasses also carry ``__pydantic_config__ = {"extra": "forbid"}`` so the bench can
-validate the same tables with pydantic; the flight code itself imports only the stdlib here.
+The bench never imports this module: it asks ``python -m flightcode --check-config``
+(flightcode/check.py) whether the config a run would give the flight code is valid.
 """
 
 from __future__ import annotations

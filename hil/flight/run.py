@@ -34,6 +34,7 @@ from hil.config.rig import Rig, load_rig
 from hil.config.scenario import Scenario, apply_to_rig, load_scenario
 from hil.flight import run_setup
 from hil.flight.devices import DeviceSet
+from hil.flight.flight_check import check_flight_config
 from hil.flight.process import FlightProcess, expand_command
 from hil.flight.run_files import deep_merge, default_log_path, run_metadata, write_flight_config
 from hil.flight.run_finish import finish_run
@@ -175,6 +176,7 @@ async def run_flight_async(
     refuse_lockstep(attachments, mode.value)
     rt = rtsched.for_rig(rig, realtime=mode is Mode.REALTIME)  # "fifo" refused: nothing is created yet
     wake = cpulatency.for_rig(rig)  # "require" refused: likewise
+    check_flight_config(rig, scenario, scenario_source)  # the flight code's own word on [flight] overrides
     async with contextlib.AsyncExitStack() as stack:
         await _acquire(stack, run, attachments, keep_run_dir=keep_run_dir, stress_adc_delay_us=stress_adc_delay_us,
                        record=record, out_dir=out_dir, log_path=log_path, keep_trace=keep_trace,
