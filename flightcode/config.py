@@ -7,6 +7,9 @@ table or key may be left out to take its default. Unknown tables or keys, wrong 
 out-of-range values are errors naming the file, the dotted key and the reason, e.g.::
 
     vehicle.toml: attitude.law: must be one of 'generalised', 'paper_literal' (got 'fast')
+
+The bench never imports this module: it asks ``python -m flightcode --check-config``
+(flightcode/check.py) whether the config a run would give the flight code is valid.
 """
 
 from __future__ import annotations
