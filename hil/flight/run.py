@@ -20,7 +20,6 @@ import gc
 import sys
 import traceback
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -35,9 +34,10 @@ from hil.config.scenario import Scenario, apply_to_rig, load_scenario
 from hil.flight import run_setup
 from hil.flight.devices import DeviceSet
 from hil.flight.flight_check import check_flight_config
-from hil.flight.process import FlightProcess, expand_command
+from hil.flight.process import expand_command
 from hil.flight.run_files import deep_merge, default_log_path, run_metadata, write_flight_config
 from hil.flight.run_finish import finish_run
+from hil.flight.run_state import RunState
 from hil.flight.run_result import RunResult, held_stats, realtime_criterion
 from hil.flight.run_setup import RunStartError, VirtualTimeRequired
 from hil.flight.runlog import STAMP_MAX_AGE_NS, RunLogger
@@ -51,9 +51,8 @@ from hil.host.rtsched import RtPolicy
 # looked up here at run time: tests put a fake host in its place (tests/system/test_host_figures.py)
 from hil.host.steal import StealMeter
 from hil.record.process import ProcessRecorder
-from hil.transport.base import Port
 from hil.vtime.preload import Fallback
-from hil.vtime.session import VirtualTime, describe_stall
+from hil.vtime.session import describe_stall
 
 PORTS = ("imu", "adc", "rc", "esc", "telemetry", "ground")
 SWITCH_INTERVAL_S = 0.0005
@@ -78,49 +77,6 @@ def pump_before(stream: TraceStream, deadline_ns: int) -> int:
         once = iter((True,))
         calls = stream.pump(lambda: next(once, False))
     return calls
-
-
-@dataclass(eq=False)
-class _Run:
-    """What one run holds between its steps (mutable: filled as the steps go)."""
-
-    rig: Rig
-    scenario: Scenario
-    runner: ScenarioRunner
-    mode: Mode
-    seed: int
-    duration_ns: int
-    started_ns: int | None
-    attached: dict[str, Port] = field(default_factory=dict)
-    run_dir: Path | None = None
-    ports: dict[str, Port] = field(default_factory=dict)
-    devices: DeviceSet | None = None
-    recorder: ProcessRecorder | None = None
-    stream: TraceStream | None = None
-    trace: Trace | None = None
-    logger: RunLogger | None = None
-    criteria_stream: CriteriaStream | None = None
-    telemetry_compute_us: Any = None
-    vt: VirtualTime | None = None
-    clock_note: str = ""
-    flight: FlightProcess | None = None
-    loop: TickLoop | None = None
-    notes: list[str] = field(default_factory=list)
-    #: --require-virtual-time: a fallback to the host clock is an error, not a note
-    require_vt: bool = False
-    vt_refused: VirtualTimeRequired | None = None
-
-    def note(self, text: str) -> None:
-        self.notes.append(text)
-        if self.logger is not None and self.devices is not None:
-            self.logger.event(max(self.devices.t_ns, 0), "run", "note", {"text": text})
-
-    def host_clock(self, why: str) -> None:
-        """Lockstep fell back to the host clock (at open or during boot)."""
-        if self.require_vt:
-            raise VirtualTimeRequired(f"virtual time is required (--require-virtual-time or the rig's "
-                                      f"[flight] require_virtual_time), but lockstep would fly on the host clock: {why}")
-        self.note(f"lockstep on the host clock (load changes the flight): {why}")
 
 
 async def run_flight_async(
@@ -167,7 +123,7 @@ async def run_flight_async(
     # The scenario is checked against the rig (faults, budgets) before anything is created:
     # a refused scenario raises ConfigError and leaves nothing behind.
     rig = apply_to_rig(rig, scenario)  # the scenario's [wind] over the rig's
-    run = _Run(rig, scenario, ScenarioRunner(scenario, rig, scenario_source), mode,
+    run = RunState(rig, scenario, ScenarioRunner(scenario, rig, scenario_source), mode,
                seed=scenario.scenario.seed if seed is None else seed,
                duration_ns=scenario.duration_ns if duration_s is None else int(duration_s * 1e9),
                started_ns=started_ns,
@@ -194,7 +150,7 @@ async def run_flight_async(
     return result
 
 
-async def _acquire(stack: contextlib.AsyncExitStack, run: _Run, attachments: Mapping[str, Any], *,
+async def _acquire(stack: contextlib.AsyncExitStack, run: RunState, attachments: Mapping[str, Any], *,
                    keep_run_dir: bool, stress_adc_delay_us: float, record: bool, out_dir: Path | str | None,
                    log_path: Path | None, keep_trace: bool, virtual_time: bool | None) -> None:
     """Every resource of the run, each on ``stack`` as soon as it exists (hil/flight/run_setup.py)."""
@@ -270,7 +226,7 @@ async def _acquire(stack: contextlib.AsyncExitStack, run: _Run, attachments: Map
     runner.attach_flight(flight)
 
 
-async def _fly_and_finish(run: _Run, rt: Any, wake: Any, hog: CpuHog, *, keep_run_dir: bool) -> RunResult:
+async def _fly_and_finish(run: RunState, rt: Any, wake: Any, hog: CpuHog, *, keep_run_dir: bool) -> RunResult:
     """Start the flight code, boot, run the ticks; then, whatever happened, stop everything in
     order and finalize the log with the verdict."""
     loop, flight, logger, recorder = run.loop, run.flight, run.logger, run.recorder

@@ -24,7 +24,7 @@ from hil.host.steal import realtime_note
 from hil.vtime.session import ShimUsage
 
 if TYPE_CHECKING:
-    from hil.flight.run import _Run
+    from hil.flight.run_state import RunState
 
 _T = TypeVar("_T")
 
@@ -45,7 +45,7 @@ async def despite_cancel(aw: Awaitable[_T]) -> _T:
                 task.uncancel()
 
 
-async def finish_run(run: _Run, end: EndReason, message: str, steal_ms: float | None, fc_cpu_ns: Any,
+async def finish_run(run: RunState, end: EndReason, message: str, steal_ms: float | None, fc_cpu_ns: Any,
                      rec_cpu_ns: Any, rt: Any, wake: Any, *, keep_run_dir: bool) -> RunResult:
     """Release the run's resources in order and finalize its log (see module docstring)."""
     loop, flight, vt, stream, logger, recorder, rig = run.loop, run.flight, run.vt, run.stream, run.logger, \
