@@ -1,5 +1,7 @@
 """``python -m flightcode --config FILE``: boot the devices and run the 400 Hz loop.
 
+``--check-config``: only validate the config and say so (flightcode/check.py); nothing starts.
+
 Exit status:
 
 * 0 - stopped by SIGTERM or SIGINT (motors were set to minimum first);
@@ -96,7 +98,13 @@ def open_ports(cfg: FlightConfig) -> dict[str, SerialLike]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m flightcode", description="Quad-rotor flight code (400 Hz loop).")
     parser.add_argument("--config", required=True, help="vehicle TOML file (see docs/flightcode.md)")
+    parser.add_argument("--check-config", action="store_true",
+                        help="only validate the config: one JSON verdict line on stdout, exit 0 or 2 (flightcode/check.py)")
     args = parser.parse_args(argv)
+    if args.check_config:
+        from flightcode.check import check_config
+
+        return check_config(args.config)
     log = Logger()
     try:
         cfg = load(args.config)

@@ -144,7 +144,6 @@ class FlightLoop:
         self.hover = HoverThrottle(self.model.d_h)
         self.window = ComputeWindow()
         self._rc_loss_ns = int(cfg.failsafe.rc_loss_s * 1e9)
-        self._imu_timeout_ns = int(cfg.failsafe.imu_timeout_s * 1e9)
         self._rest_after_ns = int(cfg.kf.rest_after_s * 1e9)
         self._rest_anchored_ns: int | None = None  # the rest period whose start was handled
         self._tel_slot_ns = self.period_ns * cfg.telemetry.divider
@@ -396,11 +395,7 @@ class FlightLoop:
         modes = self.modes
         before = modes.mode
         landing = before is Mode.FAILSAFE_RC or (before is Mode.FLYING and z_stick <= cfg.altitude.takeoff_alt_m)
-        if before is Mode.FAILSAFE_IMU:
-            # the first sample after an IMU timeout: if only the delivery stalled, the interrupted
-            # mode resumes with its setpoint, and any descent carries on on sensor time
-            z_ref = self.descent.step(dt_s) if self.descent.active else self._z_ref_m
-        elif landing:
+        if landing:
             if not self.descent.active:
                 self.descent.start(min(self._z_ref_m, z_hat))
             z_ref = self.descent.step(dt_s)
@@ -410,8 +405,7 @@ class FlightLoop:
         mode = modes.update(t_ns, baro_ready=self.baro_ref.ready, rc_valid=rc_valid, throttle_us=thr_us,
                             yaw_us=yaw_us, z_ref_m=z_ref, z_hat_m=z_hat, vz_hat_mps=vz_hat,
                             collective=self._collective_applied, hover_collective=self.hover.collective,
-                            a_up_mps2=self._a_up_lp,
-                            imu_continuous=gap_ns <= self._imu_timeout_ns)
+                            a_up_mps2=self._a_up_lp)
         if modes.transitions:
             if not modes.controllers_active:
                 self.descent.stop()

@@ -18,11 +18,7 @@ LANDED                  ground contact (below) and |vz estimate| < ``landed_vz_m
 IDLE_TIMEOUT            armed on the ground for ``auto_disarm_s``
 RC_LOST                 no good RC frame for ``failsafe.rc_loss_s`` (judged by the loop)
 IMU_LOST                the IMU read timed out (``failsafe.imu_timeout_s`` of wall clock)
-IMU_RESUMED             a sample arrived again and it follows the last one processed by
-                        no more than the watchdog time of *sensor* time: the sensor kept
-                        sampling, only the delivery stalled (a loaded lockstep bench, where
-                        sim time stands still meanwhile): back to the interrupted mode
-IMU_BACK                a sample arrived again after a real gap: disarmed, re-arm to fly
+IMU_BACK                a sample arrived again: disarmed, re-arm to fly
 ======================  ===========================================================
 
 Ground contact (:attr:`ModeMachine.ground_contact`, judged every sample while the controllers
@@ -33,7 +29,7 @@ below ``landed_alt_m`` (near the ground), the collective applied is below
 downwards on a thrust that could not hold it in the air.
 
 Motors per mode (:data:`MOTORS`): minimum pulse (the ESCs' arming level) in BOOT, DISARMED
-and FAILSAFE_IMU (so a delivery stall costs the samples it lasts, never the flight); idle pulse when ARMED on the ground; the controllers in FLYING and
+and FAILSAFE_IMU (no attitude to control without the IMU); idle pulse when ARMED on the ground; the controllers in FLYING and
 FAILSAFE_RC (level, descend at ``failsafe.descend_mps``, then disarm on landing). The
 failsafe latches: RC coming back does not return control before the vehicle is disarmed.
 
@@ -80,7 +76,6 @@ class ModeEvent(Enum):
     IDLE_TIMEOUT = "idle_timeout"
     RC_LOST = "rc_lost"
     IMU_LOST = "imu_lost"
-    IMU_RESUMED = "imu_resumed"
     IMU_BACK = "imu_back"
 
 
@@ -93,18 +88,15 @@ class MotorPolicy(Enum):
     CONTROL = "control"
 
 
-#: Target of IMU_RESUMED: the mode the IMU watchdog interrupted.
-RESUME = None
-
 E, M = ModeEvent, Mode
-TRANSITIONS: dict[Mode, dict[ModeEvent, Mode | None]] = {
+TRANSITIONS: dict[Mode, dict[ModeEvent, Mode]] = {
     M.BOOT: {E.BOOT_DONE: M.DISARMED},
     M.DISARMED: {E.ARM_GESTURE: M.ARMED, E.IMU_LOST: M.FAILSAFE_IMU},
     M.ARMED: {E.TAKEOFF: M.FLYING, E.DISARM_GESTURE: M.DISARMED, E.IDLE_TIMEOUT: M.DISARMED,
               E.RC_LOST: M.DISARMED, E.IMU_LOST: M.FAILSAFE_IMU},
     M.FLYING: {E.LANDED: M.ARMED, E.RC_LOST: M.FAILSAFE_RC, E.IMU_LOST: M.FAILSAFE_IMU},
     M.FAILSAFE_RC: {E.LANDED: M.DISARMED, E.IMU_LOST: M.FAILSAFE_IMU},
-    M.FAILSAFE_IMU: {E.IMU_BACK: M.DISARMED, E.IMU_RESUMED: RESUME},
+    M.FAILSAFE_IMU: {E.IMU_BACK: M.DISARMED},
 }
 MOTORS: dict[Mode, MotorPolicy] = {
     M.BOOT: MotorPolicy.MINIMUM,
@@ -208,7 +200,6 @@ class ModeMachine:
         self._landed = _Hold(_ns(params.landed_s))
         self._idle = _Hold(_ns(params.auto_disarm_s))
         self._t_ns = 0
-        self._interrupted = Mode.DISARMED  # the mode IMU_LOST left (IMU_RESUMED returns to it)
         #: The last sample's ground-contact test (module docstring; False unless the controllers
         #: fly, and after a transition).
         self.ground_contact = False
@@ -235,10 +226,6 @@ class ModeMachine:
         if event not in table:
             return False
         new = table[event]
-        if new is RESUME:
-            new = self._interrupted
-        elif new is Mode.FAILSAFE_IMU:
-            self._interrupted = self.mode
         self.transitions.append(Transition(t_ns, self.mode, new, event))
         if new not in AT_REST:
             self.resting_since_ns = None
@@ -257,7 +244,7 @@ class ModeMachine:
 
     def update(self, t_ns: int, *, baro_ready: bool, rc_valid: bool, throttle_us: float, yaw_us: float,
                z_ref_m: float, z_hat_m: float, vz_hat_mps: float, collective: float, hover_collective: float,
-               a_up_mps2: float, imu_continuous: bool = False) -> Mode:
+               a_up_mps2: float) -> Mode:
         """One sample at sensor time ``t_ns``; returns the (possibly new) mode.
 
         ``throttle_us``/``yaw_us`` are the latest stick pulses (ignored unless ``rc_valid``);
@@ -266,9 +253,7 @@ class ModeMachine:
         throttle applied over the last sample (0 when the controllers do not drive the motors)
         and ``hover_collective`` the collective that holds the vehicle in the air (unit
         throttle, both); ``a_up_mps2`` the measured vertical acceleration, low-passed (m/s^2,
-        up; from the IMU, not the estimate); ``imu_continuous``: this
-        sample follows the previous one processed by at most the watchdog time of sensor time
-        (matters only after an IMU timeout: IMU_RESUMED instead of IMU_BACK).
+        up; from the IMU, not the estimate).
         """
         self._t_ns = t_ns
         p = self.params
@@ -277,7 +262,7 @@ class ModeMachine:
                                and z_hat_m < p.landed_alt_m and collective < p.landed_collective_ratio * hover_collective
                                and abs(a_up_mps2) < p.landed_accel_mps2)
         if mode is Mode.FAILSAFE_IMU:
-            self._fire(ModeEvent.IMU_RESUMED if imu_continuous else ModeEvent.IMU_BACK, t_ns)
+            self._fire(ModeEvent.IMU_BACK, t_ns)
             return self.mode
         if mode is Mode.BOOT:
             if baro_ready:

@@ -7,12 +7,9 @@ replay), ``host`` (the machine under the bench), and beside them ``plant``, ``fa
 ``record``, ``transport`` and ``vtime``.
 """
 
-from hil import _moved, native
+from hil import native
 
 __version__ = "0.1.0"
 
 # the compiled build (``hil build``), when it is the build of these sources (hil/native/)
 native.install()
-
-# old import paths (before the packages above) keep working, with a DeprecationWarning
-_moved.install()

@@ -14,7 +14,6 @@
 
 from __future__ import annotations
 
-import signal
 import sys
 from pathlib import Path
 from typing import Annotated, Optional
@@ -43,6 +42,16 @@ def _fail(message: str, code: int = 2) -> None:
     raise typer.Exit(code)
 
 
+def _log_file(log: Path) -> None:
+    """Exit 2 with one sentence unless ``log`` is a complete run log (hil/record/log_check.py)."""
+    from hil.record.log_check import LogError, check_log
+
+    try:
+        check_log(log)
+    except LogError as exc:
+        _fail(str(exc))
+
+
 @app.command()
 def run(
     rig: Annotated[str | None, typer.Argument(help="Rig file or name under rigs/ (default: paper-quad).")] = None,
@@ -56,13 +65,15 @@ def run(
     stress_cpu: Annotated[int, typer.Option(help="Timing stress: CPU-bound processes beside the flight code.")] = 0,
     stress_adc_delay_us: Annotated[float, typer.Option(help="Timing stress: hold every ADC bridge reply back (wall us).")] = 0.0,
     wall_clock: Annotated[bool, typer.Option("--wall-clock", help="Lockstep with the flight code on the host clock (no clock shim; docs/time.md). For comparisons only: load then changes the flight.")] = False,
+    require_vt: Annotated[bool, typer.Option("--require-virtual-time", help="Lockstep: exit 2 rather than fall back to the host clock (shim missing, static binary, LD_PRELOAD dropped); also the rig's [flight] require_virtual_time.")] = False,
     attach: Annotated[list[str] | None, typer.Option("--attach", help="PORT=DEVICE: this port on a real serial device or URL (/dev/ttyUSB0, socket://host:port, rfc2217://host:port); repeatable; realtime only.")] = None,
 ) -> None:
     """Fly the flight code against the emulated vehicle and write one MCAP log.
 
     Exit status: 0 the run completed and every criterion passed; 1 a criterion failed or the
-    run did not complete (flight code exited, boot failed, interrupted); 2 bad input (rig,
-    scenario, option, a fault the rig refuses): nothing was started.
+    run did not complete (flight code exited, boot failed, interrupted, a resource could not be
+    had); 2 bad input (rig, scenario, option, a fault the rig refuses, a [flight] override the
+    flight code refuses, virtual time required but not available).
     """
     from hil import clock
 
@@ -94,7 +105,7 @@ def run(
 
     from hil.config.attach import parse_attach_flags, refuse_lockstep, resolve_attachments
     from hil.flight.tickloop import Mode
-    from hil.flight.run import PORTS, run_flight_async
+    from hil.flight.run import PORTS, RunStartError, run_flight_async
     from hil.analysis.summary import print_summary
 
     run_mode = Mode(mode)
@@ -105,43 +116,27 @@ def run(
         _fail(str(exc))
 
     from hil.flight.progress import ConsoleProgress
+    from hil.flight.signals import cancelled_by_signals
 
     # a bar on a terminal, plain lines on a pipe or CI log
     progress = ConsoleProgress(console, f"{rig_obj.name}/{scenario_obj.name}", quiet=quiet)
 
     async def main() -> object:
         progress.begin()
-        current = asyncio.current_task()
-        loop = asyncio.get_running_loop()
-        assert current is not None
-        loop.add_signal_handler(signal.SIGINT, current.cancel)
-        loop.add_signal_handler(signal.SIGTERM, current.cancel)
-        try:
-            return await run_flight_async(
-                rig_obj,
-                scenario_obj,
-                mode=run_mode,
-                seed=seed,
-                duration_s=duration,
-                out_dir=out,
-                record=not no_record,
-                progress=progress,
-                scenario_source=source,
-                virtual_time=False if wall_clock else None,
-                stress_cpu=stress_cpu,
-                stress_adc_delay_us=stress_adc_delay_us,
-                attach=attach_map,
-                started_ns=started_ns,
-            )
-        finally:
-            loop.remove_signal_handler(signal.SIGINT)
-            loop.remove_signal_handler(signal.SIGTERM)
+        return await cancelled_by_signals(run_flight_async(
+            rig_obj, scenario_obj, mode=run_mode, seed=seed, duration_s=duration, out_dir=out,
+            record=not no_record, progress=progress, scenario_source=source,
+            virtual_time=False if wall_clock else None, require_virtual_time=require_vt or None, stress_cpu=stress_cpu,
+            stress_adc_delay_us=stress_adc_delay_us, attach=attach_map, started_ns=started_ns,
+        ))
 
     try:
         with progress.bar:
             result = asyncio.run(main())
-    except ConfigError as exc:  # refused before anything was created (e.g. a fault after the end)
+    except ConfigError as exc:  # refused before anything was created, or virtual time required and missing
         _fail(str(exc))
+    except RunStartError as exc:  # a resource could not be had; what was acquired is released
+        _fail(str(exc), 1)
     print_summary(console, result, rig_obj, scenario_obj)  # type: ignore[arg-type]
     raise typer.Exit(0 if result.passed else 1)  # type: ignore[attr-defined]
 
@@ -189,16 +184,18 @@ def recover(
 ) -> None:
     """Salvage a killed run's MCAP: every complete chunk, metadata and attachments.
 
-    Exit status: 0 the file was written (it says how many messages were kept); 2 no such file.
+    Exit status: 0 the file was written (it says how many messages were kept); 2 no such
+    file, not an MCAP file, or an output that is the input (nothing written).
     """
     from hil.record import recover as do_recover
     from hil.record import recovered_path
+    from hil.record.log_check import LogError
 
-    if not log.exists():
-        _fail(f"{log}: no such file")
-    if out is None:
-        out = recovered_path(log)
-    n = do_recover(log, out)
+    out = out or recovered_path(log)
+    try:
+        n = do_recover(log, out)
+    except (LogError, OSError) as exc:
+        _fail(str(exc))
     console.print(f"recovered {n} messages -> {out}")
 
 
@@ -209,12 +206,11 @@ def report(
 ) -> None:
     """Plot a run: attitude, altitude, motors and timing, as PNG files.
 
-    Exit status: 0 the plots were written (their paths are printed); 2 no such file.
+    Exit status: 0 the plots were written (their paths are printed); 2 not a readable run log.
     """
     from hil.analysis.report import make_report
 
-    if not log.exists():
-        _fail(f"{log}: no such file")
+    _log_file(log)
     for path in make_report(log, out or log.parent):
         console.print(str(path))
 
@@ -228,14 +224,13 @@ def timing(
     """Timing of the 400 Hz loop from a log: period, response latency, jitter, misses, compute.
 
     Exit status: 0 every sample answered within the budget (and, for a realtime run, realtime
-    held); 1 a sample over the budget or without an ESC command, or realtime not held; 2 no
-    such file.
+    held); 1 a sample over the budget or without an ESC command, or realtime not held; 2 not
+    a readable run log (missing, torn, damaged, not an MCAP file, or another tool's MCAP).
     """
     from hil.analysis.timing import analyze_log, plot_latency
     from hil.analysis.timing_table import print_timing
 
-    if not log.exists():
-        _fail(f"{log}: no such file")
+    _log_file(log)
     rep = analyze_log(log, budget_us)
     print_timing(console, rep, log.name)
     out = plot_latency(log, png or log.with_name(log.name.removesuffix(".mcap") + "_timing.png"), budget_us)
@@ -254,7 +249,7 @@ def perf(
 
     Exit status: 0 the table was printed (the figures are information, not a verdict).
     """
-    from hil.host.perf import measure
+    from hil.perf.measure import measure
 
     rep = measure(lockstep_runs=runs, lockstep_s=seconds, realtime_s=seconds)
     table = Table(title="hil perf (medians; shared machines are noisy: compare ratios)")
@@ -307,7 +302,7 @@ def replay(
     """Play a recorded session's device bytes back on ptys, or --verify it by re-running it.
 
     Exit status: 0 played back (or --verify: the re-run matched); 1 --verify found a
-    divergence; 2 no such file, or a log that cannot be replayed.
+    divergence; 2 not a readable run log, or a log that cannot be replayed.
     """
     import asyncio
 
@@ -316,8 +311,7 @@ def replay(
     from hil.fleet.replay_error import ReplayError
     from hil.fleet.verify import verify
 
-    if not log.exists():
-        _fail(f"{log}: no such file")
+    _log_file(log)
     try:
         if verify_:
             result = verify(log, out)

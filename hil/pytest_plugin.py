@@ -77,6 +77,9 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                     help="keep the MCAP logs of failing hil_bench tests in DIR (default: <basetemp>/hil-logs)")
     group.addoption("--hil-keep-all", action="store_true", default=False,
                     help="keep the MCAP logs of passing hil_bench tests too")
+    group.addoption("--hil-require-virtual-time", action="store_true", default=False,
+                    help="a lockstep bench that would fall back to the host clock (clock shim missing, "
+                         "static program, LD_PRELOAD dropped) errors instead (as hil run --require-virtual-time)")
     parser.addini("hil_keep_logs", "default for --hil-keep-logs", default="")
 
 
@@ -118,7 +121,8 @@ def keep_dir_of(config: pytest.Config, basetemp: Path) -> Path:
 async def _hil_bench(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> AsyncIterator[HilBench]:
     item = request.node
     keep = keep_dir_of(request.config, tmp_path_factory.getbasetemp())
-    factory = HilBench(item.nodeid, item.name, keep_dir=keep, keep_all=bool(request.config.getoption("hil_keep_all")))
+    factory = HilBench(item.nodeid, item.name, keep_dir=keep, keep_all=bool(request.config.getoption("hil_keep_all")),
+                       require_virtual_time=bool(request.config.getoption("hil_require_virtual_time")))
     item.stash[_FACTORY] = factory
     yield factory
     failed = [r for r in item.stash.get(_REPORTS, {}).values() if r.failed]

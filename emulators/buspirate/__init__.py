@@ -1,8 +1,8 @@
 """Bus Pirate v3 in binary mode (BBIO1/SPI1) with the MCP3204 on its SPI pins."""
 
 from emulators.buspirate.defs import Mode
-from emulators.buspirate.device import (
-    BusPirate,
+from emulators.buspirate.device import BusPirate
+from emulators.buspirate.events import (
     BusPirateModeChanged,
     BusPirateProtocolError,
     BusPirateSpi,

@@ -20,7 +20,8 @@ from emulators.xbee.frames import (
     tx_status,
 )
 from emulators.xbee.link import RadioLink, RfDelivered, RfFailed
-from emulators.xbee.module import AtCommandHandled, ModeChanged, RfPacket, XBeeModule
+from emulators.xbee.module import XBeeModule
+from emulators.xbee.packets import AtCommandHandled, ModeChanged, RfPacket
 from emulators.xbee.params import LinkParams, XBeeParams, bd_to_baud
 
 __all__ = [

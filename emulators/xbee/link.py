@@ -16,7 +16,8 @@ import numpy as np
 
 from emulators.base import DeviceEvent
 from emulators.xbee.frames import TxStatus
-from emulators.xbee.module import NO_16BIT, RfPacket, XBeeModule
+from emulators.xbee.module import XBeeModule
+from emulators.xbee.packets import NO_16BIT, RfPacket
 from emulators.xbee.params import LinkParams
 
 NS_PER_S = 1_000_000_000

@@ -14,12 +14,9 @@ over the packets to transmit, :meth:`accepts`/:meth:`air_receive` deliver incomi
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
-from enum import Enum, auto, unique
 
 import numpy as np
 
-from emulators.base import ByteDevice, DeviceEvent
 from emulators.xbee import frames as fr
 from emulators.xbee.frames import (
     ApiParser,
@@ -31,98 +28,17 @@ from emulators.xbee.frames import (
     TxStatus,
 )
 from emulators.xbee.params import XBeeParams, bd_to_baud
+from emulators.xbee.packets import NO_16BIT, AtCommandHandled, ModeChanged, RfKind, RfPacket
 from emulators.xbee.registers import REGISTERS, Registers, RegKind
+from emulators.xbee.transparent import NS_PER_MS, TransparentMode, TextState
 
-NS_PER_MS = 1_000_000
 NS_PER_S = 1_000_000_000
-NO_16BIT = 0xFFFE  # MY = 0xFFFE/0xFFFF: the module sends with its 64-bit address
 REMOTE_APPLY = 0x02  # remote AT option: apply changes
 
 
-@unique
-class RfKind(Enum):
-    """What an RF packet carries."""
-
-    DATA = auto()
-    REMOTE_AT_REQUEST = auto()  # payload: frame id, options, command (2), parameter
-    REMOTE_AT_RESPONSE = auto()  # payload: frame id, status, command (2), value
-
-
-@dataclass(frozen=True, init=False)
-class RfPacket:
-    """One packet handed to the radio at ``t_ns``: addressing as the 802.15.4 MAC carries
-    it (``dest16`` or ``dest64``; ``src16`` = ``NO_16BIT`` for 64-bit source addressing),
-    ``ack`` True for an acknowledged unicast, ``tag`` the sender's handle for the result."""
-
-    t_ns: int
-    src16: int
-    src64: int
-    dest16: int | None
-    dest64: int | None
-    payload: bytes
-    ack: bool
-    broadcast_pan: bool
-    channel: int
-    pan_id: int
-    tag: int
-    kind: RfKind = RfKind.DATA
-
-    def __init__(self, t_ns: int, src16: int, src64: int, dest16: int | None, dest64: int | None, payload: bytes,
-                 ack: bool, broadcast_pan: bool, channel: int, pan_id: int, tag: int,
-                 kind: RfKind = RfKind.DATA) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
-        object.__setattr__(self, "t_ns", t_ns)
-        object.__setattr__(self, "src16", src16)
-        object.__setattr__(self, "src64", src64)
-        object.__setattr__(self, "dest16", dest16)
-        object.__setattr__(self, "dest64", dest64)
-        object.__setattr__(self, "payload", payload)
-        object.__setattr__(self, "ack", ack)
-        object.__setattr__(self, "broadcast_pan", broadcast_pan)
-        object.__setattr__(self, "channel", channel)
-        object.__setattr__(self, "pan_id", pan_id)
-        object.__setattr__(self, "tag", tag)
-        object.__setattr__(self, "kind", kind)
-
-    @property
-    def broadcast(self) -> bool:
-        """Addressed to everybody."""
-        return self.dest16 == fr.BROADCAST_16 or self.dest64 == fr.BROADCAST_64
-
-
-@dataclass(frozen=True)
-class AtCommandHandled(DeviceEvent):
-    """An AT command was answered (``via`` "api" or "text"; ``status`` as in 0x88)."""
-
-    command: str
-    status: int
-    via: str
-
-
-@dataclass(frozen=True)
-class ModeChanged(DeviceEvent):
-    """AP changed to ``ap`` (0 transparent, 1 API, 2 escaped API)."""
-
-    ap: int
-
-
-class _Text(Enum):
-    DATA = auto()
-    COMMAND = auto()
-
-
-class XBeeModule(ByteDevice):
+class XBeeModule(TransparentMode):
     """An XBee-PRO 802.15.4 module; ``rng`` is reserved for module-side randomness (the
     link draws losses and RSSI noise from its own generator)."""
-
-    _text: _Text
-    _tx_buf: bytearray
-    _last_rx_ns: int
-    _plus: int
-    _plus_first_ns: int
-    _plus_last_ns: int
-    _cmd_line: bytearray
-    _cmd_deadline_ns: int
 
     def __init__(self, params: XBeeParams, rng: np.random.Generator, name: str = "telemetry") -> None:
         super().__init__()
@@ -166,7 +82,7 @@ class XBeeModule(ByteDevice):
     @property
     def in_command_mode(self) -> bool:
         """True in transparent command mode."""
-        return self._text is _Text.COMMAND
+        return self._text is TextState.COMMAND
 
     # -- host side -----------------------------------------------------------------------
     def reset(self, t_ns: int) -> None:
@@ -196,7 +112,7 @@ class XBeeModule(ByteDevice):
         if not self._baud_ok:
             self.counters["rx_bad_baud_bytes"] += len(data)
             return
-        if self._text is _Text.COMMAND:
+        if self._text is TextState.COMMAND:
             self._command_bytes(data, t_ns)
         elif self.ap:
             for frame in self._parser.feed(data):
@@ -217,13 +133,13 @@ class XBeeModule(ByteDevice):
         if self.ap:
             return
         gt_ns = self.regs.num("GT") * NS_PER_MS
-        if self._text is _Text.COMMAND:
+        if self._text is TextState.COMMAND:
             if t_ns >= self._cmd_deadline_ns:
                 self._exit_command_mode(t_ns)
             return
         if self._plus == 3 and t_ns - self._plus_last_ns >= gt_ns:
             self._plus = 0
-            self._text = _Text.COMMAND
+            self._text = TextState.COMMAND
             self._cmd_line.clear()
             self._cmd_deadline_ns = t_ns + self.regs.num("CT") * 100 * NS_PER_MS
             self.counters["command_mode_entered"] += 1
@@ -413,92 +329,3 @@ class XBeeModule(ByteDevice):
             self._event(ModeChanged(self._t_ns, self.ap))
         if "BD" in changed:
             self._check_baud()
-
-    # -- transparent mode ----------------------------------------------------------------
-    def _reset_text_state(self) -> None:
-        self._text = _Text.DATA
-        self._tx_buf = bytearray()
-        self._last_rx_ns = -(1 << 62)  # "long ago": power-up counts as silence
-        self._plus = 0
-        self._plus_first_ns = 0
-        self._plus_last_ns = 0
-        self._cmd_line = bytearray()
-        self._cmd_deadline_ns = 0
-
-    def _transparent_bytes(self, data: bytes, t_ns: int) -> None:
-        cc = self.regs.num("CC")
-        gt_ns = self.regs.num("GT") * NS_PER_MS
-        for b in data:
-            if b == cc and self._plus == 0 and not self._tx_buf and t_ns - self._last_rx_ns >= gt_ns:
-                self._plus, self._plus_first_ns, self._plus_last_ns = 1, t_ns, t_ns
-            elif b == cc and 0 < self._plus < 3 and t_ns - self._plus_first_ns < gt_ns:
-                self._plus += 1
-                self._plus_last_ns = t_ns
-            else:
-                self._flush_plus()
-                self._tx_buf.append(b)
-                if len(self._tx_buf) >= self.params.max_payload:
-                    self._packetise(t_ns)
-            self._last_rx_ns = t_ns
-        if self.regs.num("RO") == 0 and self._tx_buf and self._plus == 0:
-            self._packetise(t_ns)
-
-    def _flush_plus(self) -> None:
-        if self._plus:
-            self._tx_buf += bytes((self.regs.num("CC"),)) * self._plus
-            self._plus = 0
-            while len(self._tx_buf) >= self.params.max_payload:
-                self._packetise(self._last_rx_ns)
-
-    def _packetise(self, t_ns: int) -> None:
-        chunk = bytes(self._tx_buf[: self.params.max_payload])
-        del self._tx_buf[: self.params.max_payload]
-        dh, dl = self.regs.num("DH"), self.regs.num("DL")
-        if dh == 0 and dl <= 0xFFFF:
-            self._transmit(chunk, dl, None, 0, 0, t_ns)
-        else:
-            self._transmit(chunk, None, (dh << 32) | dl, 0, 0, t_ns)
-
-    def _command_bytes(self, data: bytes, t_ns: int) -> None:
-        for b in data:
-            if self._text is not _Text.COMMAND:  # ATCN earlier in this chunk: the rest is data
-                self._transparent_bytes(bytes((b,)), t_ns)
-                continue
-            if b != 0x0D:
-                if len(self._cmd_line) < 128:
-                    self._cmd_line.append(b)
-                continue
-            line = self._cmd_line.decode("ascii", "replace").strip()
-            self._cmd_line.clear()
-            self._cmd_deadline_ns = t_ns + self.regs.num("CT") * 100 * NS_PER_MS
-            self._command_line(line, t_ns)
-
-    def _command_line(self, line: str, t_ns: int) -> None:
-        if not line.upper().startswith("AT"):
-            self._send(b"ERROR\r")
-            return
-        body = line[2:]
-        if not body.strip():
-            self._send(b"OK\r")
-            return
-        for part in body.split(","):
-            part = part.strip()
-            name, param = part[:2].upper(), part[2:].strip()
-            status, value = self._at(name, param if param else None, t_ns, apply_now=False, via="text")
-            if status != AtStatus.OK:
-                self._send(b"ERROR\r")
-                return
-            if name == "CN":
-                self._send(b"OK\r")
-                self._exit_command_mode(t_ns)
-                return
-            if value:
-                self._send(self.regs.encode_text(name).encode("ascii", "replace") + b"\r")
-            else:
-                self._send(b"OK\r")
-
-    def _exit_command_mode(self, t_ns: int) -> None:
-        self._text = _Text.DATA
-        self._cmd_line.clear()
-        self._last_rx_ns = t_ns
-        self._apply()

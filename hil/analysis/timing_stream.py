@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from hil.flight.tick import LatencySample
+from hil.frozen import by_fields
 
 #: relative width of a StreamingStats bin: percentiles are within half of it (0.25 %)
 STREAM_RESOLUTION = 0.005
@@ -126,6 +125,31 @@ class PeriodStats:
             self.period.append(d)
             self.jitter.append(abs(d - self.nominal))
         self._last = t
+
+
+@dataclass(frozen=True, init=False)
+class LatencySample:
+    """How one IMU sample was answered. Host ns from the bench's monotonic clock; sim ns."""
+
+    t_ns: int  #: the sample's sim time
+    t_emit_host_ns: int  #: when the bench wrote it
+    t_arrival_host_ns: int | None  #: when its ESC command arrived (None: no command, a miss)
+    t_arrival_ns: int | None = None  #: virtual time: the command's sim time
+    fc_cpu_ns: int | None = None  #: virtual time: the flight code's CPU time for it (host ns)
+    lateness_ns: int | None = None  #: realtime: how late the tick that emitted it started (host ns)
+
+    def __init__(self, t_ns: int, t_emit_host_ns: int, t_arrival_host_ns: int | None, t_arrival_ns: int | None = None,
+                 fc_cpu_ns: int | None = None, lateness_ns: int | None = None) -> None:
+        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        object.__setattr__(self, "t_ns", t_ns)
+        object.__setattr__(self, "t_emit_host_ns", t_emit_host_ns)
+        object.__setattr__(self, "t_arrival_host_ns", t_arrival_host_ns)
+        object.__setattr__(self, "t_arrival_ns", t_arrival_ns)
+        object.__setattr__(self, "fc_cpu_ns", fc_cpu_ns)
+        object.__setattr__(self, "lateness_ns", lateness_ns)
+
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
+        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
 
 
 class LatencyStats:

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 from emulators.base import DeviceEvent
-from emulators.buspirate.device import BusPirateUartRate
+from emulators.buspirate.events import BusPirateUartRate
 from emulators.xsens.events import BaudChanged
 from hil.config import ConfigError, check_keys, validate
 

@@ -87,6 +87,9 @@ class FlightSection:
     cpu_scale: Annotated[float, Field(gt=0.0)] = 1.0
     #: lockstep: run the flight code on sim time through the clock shim (docs/time.md)
     virtual_time: bool = True
+    #: lockstep: refuse to fly on the host clock when virtual time cannot be had (the clock
+    #: shim missing, a static program, LD_PRELOAD dropped): exit 2 with the reason, not a note
+    require_virtual_time: bool = False
     #: tables merged over the flight code's config template for this rig (e.g. gains retuned
     #: for this rig's plant), before a scenario's own ``[flight]`` overrides
     overrides: dict[str, Any] = field(default_factory=dict)

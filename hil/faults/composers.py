@@ -22,10 +22,10 @@ from enum import Enum, unique
 from typing import TYPE_CHECKING, Generic, Protocol, TypeVar
 
 from emulators.analog.frontend import AccelFault, BaroFault
-from hil.faults.base import Vec3
 
 if TYPE_CHECKING:
     from hil.flight.devices import DeviceSet
+    from hil.plant.records import Vec3
 
 
 # -- what the contributors provide --------------------------------------------------------------

@@ -33,8 +33,7 @@ from hil import clock
 from hil.plant.plant import Plant
 from hil.plant.records import Quat, Vec3
 from hil.config.rig import Rig
-from hil.analysis.timing_stream import LatencyStats
-from hil.flight.tick import LatencySample
+from hil.analysis.timing_stream import LatencySample, LatencyStats
 from hil.transport.base import LineSettings, Port
 
 #: Names of the RNG streams, in spawn order (adding one at the end keeps the others).

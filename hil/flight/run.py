@@ -17,61 +17,46 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import gc
-import shutil
 import sys
 import traceback
-from collections.abc import Awaitable, Callable, Mapping
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 from hil import clock, native
 from hil.analysis.criteria_stream import CriteriaStream
 from hil.analysis.trace import Trace
 from hil.analysis.trace_stream import TraceSink, TraceStream, TraceTee
 from hil.config import ConfigError
-from hil.config.attach import follow_device_rates, open_attached, refuse_lockstep, resolve_attachments
+from hil.config.attach import follow_device_rates, refuse_lockstep, resolve_attachments
 from hil.config.rig import Rig, load_rig
 from hil.config.scenario import Scenario, apply_to_rig, load_scenario
+from hil.flight import run_setup
 from hil.flight.devices import DeviceSet
+from hil.flight.flight_check import check_flight_config
 from hil.flight.process import FlightProcess, expand_command
-from hil.flight.run_files import deep_merge, default_log_path, run_metadata, verdict_metadata, write_flight_config
-from hil.flight.run_result import RunResult, cores_used, held_stats, realtime_criterion, timing_summary
-from hil.flight.rundir import make_run_dir
+from hil.flight.run_files import deep_merge, default_log_path, run_metadata, write_flight_config
+from hil.flight.run_finish import finish_run
+from hil.flight.run_result import RunResult, held_stats, realtime_criterion
+from hil.flight.run_setup import RunStartError, VirtualTimeRequired
 from hil.flight.runlog import STAMP_MAX_AGE_NS, RunLogger
 from hil.flight.scenario_runner import ScenarioRunner
 from hil.flight.stress import CpuHog
-from hil.flight.tickloop import BootError, Clock, EndReason, Mode, TickLoop
+from hil.flight.tickloop import BootError, EndReason, Mode, TickLoop
 from hil.host import cpulatency, rtsched
 from hil.host.cpulatency import LatencyMode
 from hil.host.cpuuse import ChildCpu
 from hil.host.rtsched import RtPolicy
 # looked up here at run time: tests put a fake host in its place (tests/system/test_host_figures.py)
-from hil.host.steal import StealMeter, realtime_note
+from hil.host.steal import StealMeter
 from hil.record.process import ProcessRecorder
 from hil.transport.base import Port
-from hil.transport.pty import PtyPort
 from hil.vtime.preload import Fallback
-from hil.vtime.session import ShimUsage, VirtualTime, describe_stall
+from hil.vtime.session import VirtualTime, describe_stall
 
 PORTS = ("imu", "adc", "rc", "esc", "telemetry", "ground")
 SWITCH_INTERVAL_S = 0.0005
-_T = TypeVar("_T")
-
-
-async def _despite_cancel(aw: Awaitable[_T]) -> _T:
-    """Await ``aw`` to its end even if this task is cancelled meanwhile (a run's cleanup).
-    The cancel is taken back (``uncancel``): the run is ending anyway, and its result is
-    the answer to whoever asked it to stop."""
-    fut = asyncio.ensure_future(aw)
-    while True:
-        try:
-            return await asyncio.shield(fut)
-        except asyncio.CancelledError:
-            if fut.cancelled():
-                raise
-            task = asyncio.current_task()
-            if task is not None:
-                task.uncancel()
 
 
 #: realtime: chunk work stops this long before the next tick's deadline: the pacer's spin
@@ -95,6 +80,49 @@ def pump_before(stream: TraceStream, deadline_ns: int) -> int:
     return calls
 
 
+@dataclass(eq=False)
+class _Run:
+    """What one run holds between its steps (mutable: filled as the steps go)."""
+
+    rig: Rig
+    scenario: Scenario
+    runner: ScenarioRunner
+    mode: Mode
+    seed: int
+    duration_ns: int
+    started_ns: int | None
+    attached: dict[str, Port] = field(default_factory=dict)
+    run_dir: Path | None = None
+    ports: dict[str, Port] = field(default_factory=dict)
+    devices: DeviceSet | None = None
+    recorder: ProcessRecorder | None = None
+    stream: TraceStream | None = None
+    trace: Trace | None = None
+    logger: RunLogger | None = None
+    criteria_stream: CriteriaStream | None = None
+    telemetry_compute_us: Any = None
+    vt: VirtualTime | None = None
+    clock_note: str = ""
+    flight: FlightProcess | None = None
+    loop: TickLoop | None = None
+    notes: list[str] = field(default_factory=list)
+    #: --require-virtual-time: a fallback to the host clock is an error, not a note
+    require_vt: bool = False
+    vt_refused: VirtualTimeRequired | None = None
+
+    def note(self, text: str) -> None:
+        self.notes.append(text)
+        if self.logger is not None and self.devices is not None:
+            self.logger.event(max(self.devices.t_ns, 0), "run", "note", {"text": text})
+
+    def host_clock(self, why: str) -> None:
+        """Lockstep fell back to the host clock (at open or during boot)."""
+        if self.require_vt:
+            raise VirtualTimeRequired(f"virtual time is required (--require-virtual-time or the rig's "
+                                      f"[flight] require_virtual_time), but lockstep would fly on the host clock: {why}")
+        self.note(f"lockstep on the host clock (load changes the flight): {why}")
+
+
 async def run_flight_async(
     rig: Rig,
     scenario: Scenario,
@@ -112,15 +140,20 @@ async def run_flight_async(
     stress_cpu: int = 0,
     stress_adc_delay_us: float = 0.0,
     virtual_time: bool | None = None,
+    require_virtual_time: bool | None = None,
     attach: Mapping[str, str] | None = None,
     started_ns: int | None = None,
     keep_trace: bool = False,
 ) -> RunResult:
     """Run one flight (see module docstring). Never raises for run-time failures; a scenario
-    the rig refuses raises :class:`ConfigError` before anything is created.
+    the rig refuses raises :class:`ConfigError` before anything is created, and a resource
+    that cannot be had raises :class:`RunStartError` after everything acquired was released.
 
     ``virtual_time``: lockstep on sim time through the clock shim (None: the rig's
     ``[flight] virtual_time``, on by default); False runs lockstep on the host clock.
+    ``require_virtual_time``: lockstep's fall-back to the host clock raises
+    :class:`VirtualTimeRequired` (a ConfigError) instead (None: the rig's ``[flight]
+    require_virtual_time``); a fall-back during boot first finalizes the log.
     ``attach``: port -> device or URL over the rig's ``[ports]`` (hil/config/attach.py); realtime only.
     ``started_ns``: host monotonic instant the run was asked for (``hil run`` passes its process
     start): the timing figures then include ``start_to_tick0_s``, the wall time to tick 0.
@@ -131,124 +164,119 @@ async def run_flight_async(
     # The recorder's writer thread must not hold the GIL for the default 5 ms while the
     # tick waits on a pty (hil/record measurements: wake-ups 2.2 ms late otherwise).
     sys.setswitchinterval(SWITCH_INTERVAL_S)
-    seed = scenario.scenario.seed if seed is None else seed
-    duration_ns = scenario.duration_ns if duration_s is None else int(duration_s * 1e9)
     # The scenario is checked against the rig (faults, budgets) before anything is created:
     # a refused scenario raises ConfigError and leaves nothing behind.
     rig = apply_to_rig(rig, scenario)  # the scenario's [wind] over the rig's
-    runner = ScenarioRunner(scenario, rig, scenario_source)
-    # Real serial ports open first, all or none: a missing/busy one leaves nothing behind.
+    run = _Run(rig, scenario, ScenarioRunner(scenario, rig, scenario_source), mode,
+               seed=scenario.scenario.seed if seed is None else seed,
+               duration_ns=scenario.duration_ns if duration_s is None else int(duration_s * 1e9),
+               started_ns=started_ns,
+               require_vt=rig.flight.require_virtual_time if require_virtual_time is None else require_virtual_time)
     attachments = resolve_attachments(rig.ports, attach or {}, PORTS, command="run")
     refuse_lockstep(attachments, mode.value)
     rt = rtsched.for_rig(rig, realtime=mode is Mode.REALTIME)  # "fifo" refused: nothing is created yet
     wake = cpulatency.for_rig(rig)  # "require" refused: likewise
-    attached = open_attached(attachments, rig.port_baud)
-    run_dir = make_run_dir(f"hil-{rig.name}-")
-    dev_dir = run_dir / "dev"
-    dev_dir.mkdir(mode=0o700)
+    check_flight_config(rig, scenario, scenario_source)  # the flight code's own word on [flight] overrides
+    async with contextlib.AsyncExitStack() as stack:
+        await _acquire(stack, run, attachments, keep_run_dir=keep_run_dir, stress_adc_delay_us=stress_adc_delay_us,
+                       record=record, out_dir=out_dir, log_path=log_path, keep_trace=keep_trace,
+                       virtual_time=virtual_time)
+        loop = run.loop
+        assert loop is not None and run.logger is not None
+        if on_ready is not None:
+            on_ready(loop, run.devices, run.runner)  # type: ignore[arg-type]
+        if progress is not None:
+            duration_ns = run.duration_ns
+            run.logger.progress = lambda t_ns: progress(t_ns / 1e9, duration_ns / 1e9, run.runner.phase(t_ns))
+        result = await _fly_and_finish(run, rt, wake, CpuHog(stress_cpu), keep_run_dir=keep_run_dir)
+    if run.vt_refused is not None:
+        raise run.vt_refused
+    return result
 
-    devices = DeviceSet(rig, seed=seed, stick_script=runner.stick_script())
+
+async def _acquire(stack: contextlib.AsyncExitStack, run: _Run, attachments: Mapping[str, Any], *,
+                   keep_run_dir: bool, stress_adc_delay_us: float, record: bool, out_dir: Path | str | None,
+                   log_path: Path | None, keep_trace: bool, virtual_time: bool | None) -> None:
+    """Every resource of the run, each on ``stack`` as soon as it exists (hil/flight/run_setup.py)."""
+    rig, scenario, runner = run.rig, run.scenario, run.runner
+    with run_setup.started("opening the serial lines"):  # all or none: a missing/busy one leaves nothing
+        run.attached = run_setup.open_serial_lines(stack, attachments, rig)
+    with run_setup.started("creating the run directory"):
+        run.run_dir = run_setup.make_private_dir(stack, rig, keep=keep_run_dir)
+    devices = run.devices = DeviceSet(rig, seed=run.seed, stick_script=runner.stick_script())
     devices.adc_reply_delay_ns = int(stress_adc_delay_us * 1000)
     runner.bind(devices)
-    ports: dict[str, Port] = {name: attached.get(name) or PtyPort(name, dev_dir) for name in PORTS}
-    for port in ports.values():
-        await port.start()
-    devices.attach(dict(ports))
-    follow_device_rates(devices, attached)
-
+    with run_setup.started("opening the ports"):
+        run.ports = await run_setup.open_ports(stack, PORTS, run.run_dir / "dev", run.attached)
+    devices.attach(dict(run.ports))
+    follow_device_rates(devices, run.attached)  # type: ignore[arg-type]
     run_start_unix_ns = clock.wall_ns()
-    recorder: ProcessRecorder | None = None
     if record:
-        out_dir = Path(out_dir or "logs")
-        out_dir.mkdir(parents=True, exist_ok=True)
-        log_path = log_path or default_log_path(out_dir, rig, scenario, seed)
-        recorder = ProcessRecorder(
-            log_path,
-            run_start_unix_ns=run_start_unix_ns,
-            metadata=run_metadata(rig, scenario, seed, mode, duration_ns),
-            attachments=[
-                (rig.path.name, "application/toml", rig.path.read_bytes()),
-                (rig.flight_config_path.name, "application/toml", rig.flight_config_path.read_bytes()),
-                (f"{scenario.name}.toml", "application/toml", runner.source_bytes()),
-            ],
-        )
-        recorder.start()
+        out = Path(out_dir or "logs")
+        meta = run_metadata(rig, scenario, run.seed, run.mode, run.duration_ns)
+        files = [(rig.path.name, "application/toml", rig.path.read_bytes()),
+                 (rig.flight_config_path.name, "application/toml", rig.flight_config_path.read_bytes()),
+                 (f"{scenario.name}.toml", "application/toml", runner.source_bytes())]
+        with run_setup.started("starting the recorder"):
+            out.mkdir(parents=True, exist_ok=True)
+            run.recorder = run_setup.start_recorder(
+                stack, lambda path: ProcessRecorder(path, run_start_unix_ns=run_start_unix_ns, metadata=meta,
+                                                    attachments=files),
+                log_path or default_log_path(out, rig, scenario, run.seed), unique=log_path is None)
     # The criteria read the run's signals as they stream (a delay line longer than the oldest
     # stamp a telemetry frame may carry), so no sample is kept for the whole run unless asked.
     # Realtime: the criteria's work on a chunk (0.5-2.3 ms, once a second) waits for the time
-    # the ticks leave, instead of making one tick late (docs/performance.md, tenth round).
-    stream = TraceStream(horizon_ns=STAMP_MAX_AGE_NS + 100 * rig.tick_ns, deferred=mode is Mode.REALTIME)
-    trace = Trace() if keep_trace else None
-    sink: TraceSink = stream if trace is None else TraceTee(stream, trace)
-    logger = RunLogger(recorder, sink, devices, ports, rig, run_start_unix_ns)
+    # the ticks leave, instead of making one tick late (docs/performance.md, "Realtime").
+    stream = run.stream = TraceStream(horizon_ns=STAMP_MAX_AGE_NS + 100 * rig.tick_ns,
+                                      deferred=run.mode is Mode.REALTIME)
+    run.trace = Trace() if keep_trace else None
+    sink: TraceSink = stream if run.trace is None else TraceTee(stream, run.trace)
+    logger = run.logger = RunLogger(run.recorder, sink, devices, run.ports, rig, run_start_unix_ns)
     runner.log_event = logger.event
-    criteria_stream = CriteriaStream(scenario.criteria, stream)
-    telemetry_compute_us = held_stats(stream, "tm.compute_last_us")
-
-    flight_config = write_flight_config(rig, scenario, ports, run_dir)
-    argv = expand_command(rig.flight.command, config=flight_config)
-    notes: list[str] = []
-
-    def note(text: str) -> None:
-        notes.append(text)
-        logger.event(max(devices.t_ns, 0), "run", "note", {"text": text})
-
-    for port in attached.values():
-        for text in port.notes:
-            note(text)
+    run.criteria_stream = CriteriaStream(scenario.criteria, stream)
+    run.telemetry_compute_us = held_stats(stream, "tm.compute_last_us")
+    with run_setup.started("writing the flight code's config"):
+        argv = expand_command(rig.flight.command,
+                              config=run_setup.write_config(rig, scenario, run.ports, run.run_dir))
+    for port in run.attached.values():
+        for text in port.notes:  # type: ignore[attr-defined]
+            run.note(text)
     stale = native.stale()
     if stale:  # the compiled build is older than the sources: this run is interpreted, say so
-        note(native.stale_message(stale))
-
-    vt: VirtualTime | None = None
-    clock_note = ""
-    if mode is Mode.LOCKSTEP:
+        run.note(native.stale_message(stale))
+    if run.mode is Mode.LOCKSTEP:
         wanted = rig.flight.virtual_time if virtual_time is None else virtual_time
-        ptys = {n: p for n, p in ports.items() if isinstance(p, PtyPort)}
-        assert len(ptys) == len(ports), "a real serial line in lockstep (refuse_lockstep let it through)"
-        opened: VirtualTime | Fallback = (
-            VirtualTime.open(run_dir, ptys, argv, on_stall=lambda st: note(describe_stall(st)))
-            if wanted else Fallback("virtual time switched off (rig [flight] virtual_time or --wall-clock)")
-        )
+        with run_setup.started("setting up virtual time"):
+            opened = run_setup.open_virtual_time(stack, run.run_dir, run.ports, argv, wanted,
+                                                 on_stall=lambda st: run.note(describe_stall(st)))
         if isinstance(opened, Fallback):
-            clock_note = opened.reason
-            note(f"lockstep on the host clock (load changes the flight): {clock_note}")
+            run.clock_note = opened.reason
+            run.host_clock(opened.reason)
         else:
-            vt = opened
-    flight = FlightProcess(
-        argv,
-        cwd=Path.cwd(),
-        on_line=lambda stream, line: logger.flight_line(stream, line),
-        env=vt.env if vt is not None else None,
-    )
-    if vt is not None:
-        vt.bind(flight)
-    loop = TickLoop(
-        devices,
-        mode=mode,
-        tick_ns=rig.tick_ns,
-        duration_ns=duration_ns,
-        barrier_timeout_s=rig.flight.barrier_timeout_s,
-        boot_timeout_s=rig.flight.boot_timeout_s,
-        before_tick=runner.before_tick,
-        after_tick=logger.after_tick,
-        flight_exited=flight.exited,
+            run.vt = opened
+    with run_setup.started("preparing the flight code's process"):
+        flight = run.flight = run_setup.make_flight(stack, argv, logger, run.vt)
+    vt = run.vt
+    loop = run.loop = TickLoop(
+        devices, mode=run.mode, tick_ns=rig.tick_ns, duration_ns=run.duration_ns,
+        barrier_timeout_s=rig.flight.barrier_timeout_s, boot_timeout_s=rig.flight.boot_timeout_s,
+        before_tick=runner.before_tick, after_tick=logger.after_tick, flight_exited=flight.exited,
         # on virtual time a restart's new process is waited for from the tick its downtime ends
         flight_running=(lambda: flight.running or flight.starting) if vt is not None else (lambda: flight.running),
-        vclock=vt.clock if vt is not None else None,
-        on_fallback=lambda why: note(f"lockstep on the host clock (load changes the flight): {why}"),
+        vclock=vt.clock if vt is not None else None, on_fallback=run.host_clock,
     )
     if stream.deferred:
         loop.slack_work = lambda deadline_ns: pump_before(stream, deadline_ns)
     runner.attach_flight(flight)
-    if on_ready is not None:
-        on_ready(loop, devices, runner)
-    if progress is not None:
-        logger.progress = lambda t_ns: progress(t_ns / 1e9, duration_ns / 1e9, runner.phase(t_ns))
 
+
+async def _fly_and_finish(run: _Run, rt: Any, wake: Any, hog: CpuHog, *, keep_run_dir: bool) -> RunResult:
+    """Start the flight code, boot, run the ticks; then, whatever happened, stop everything in
+    order and finalize the log with the verdict."""
+    loop, flight, logger, recorder = run.loop, run.flight, run.logger, run.recorder
+    assert loop is not None and flight is not None and logger is not None
     end = EndReason.ERROR
     message = ""
-    hog = CpuHog(stress_cpu)
     steal = StealMeter()  # the hypervisor's pauses over the tick loop (hil/host/steal.py)
     # the other processes' CPU over the tick loop, beside the bench's own (hil/host/cpuuse.py)
     fc_cpu = ChildCpu(lambda: flight.pid)
@@ -257,13 +285,13 @@ async def run_flight_async(
     try:
         hog.__enter__()
         wake_got = wake.__enter__()
-        if not wake_got.held and wake.mode is LatencyMode.AUTO and mode is Mode.REALTIME:
+        if not wake_got.held and wake.mode is LatencyMode.AUTO and run.mode is Mode.REALTIME:
             # lockstep flies the same either way, only slower: the summary's host line says it
-            note(f"the host's idle CPUs may sleep, so every wake-up of the bench and the flight code "
-                 f"comes later and so do the responses: {wake_got.reason}")
+            run.note(f"the host's idle CPUs may sleep, so every wake-up of the bench and the flight code "
+                     f"comes later and so do the responses: {wake_got.reason}")
         rt_got = rt.__enter__()
         if rt_got.policy is not RtPolicy.FIFO and rt.policy is RtPolicy.AUTO:
-            note(f"realtime on the default scheduling policy, so other load on this host delays ticks: {rt_got.reason}")
+            run.note(f"realtime on the default scheduling policy, so other load on this host delays ticks: {rt_got.reason}")
         await flight.start()
         try:
             await loop.boot()
@@ -286,6 +314,8 @@ async def run_flight_async(
                 message = f"the flight code exited with status {flight.returncode} at t = {loop.t_ns / 1e9:.3f} s"
     except asyncio.CancelledError:
         end, message = EndReason.INTERRUPTED, "interrupted (Ctrl-C)"
+    except VirtualTimeRequired as exc:  # a fall-back during boot: finalize the log, then say so
+        end, message, run.vt_refused = EndReason.ERROR, str(exc), exc
     except Exception as exc:  # a bench bug must still finalize the log
         end, message = EndReason.ERROR, f"bench error: {type(exc).__name__}: {exc}"
         # the traceback goes into the log: a bench bug is found from the run it spoiled
@@ -301,81 +331,9 @@ async def run_flight_async(
         if frozen:
             gc.unfreeze()
         hog.__exit__(None, None, None)
-        runner.finish(max(loop.t_ns, 0))
-        # A stop that comes while the run is ending (a test's teardown racing the run's own
-        # end, a second Ctrl-C) must not cut this short: the flight code would outlive the run.
-        await _despite_cancel(runner.aclose())
-        if vt is not None:
-            vt.free_run()  # its shutdown and last words at the host's pace
-        returncode = await _despite_cancel(flight.stop())
-        with contextlib.suppress(Exception):
-            await _despite_cancel(asyncio.sleep(0))  # let the last stderr lines reach the logger
-        for port in ports.values():
-            port.close()
-        clock_used = loop.stats.clock
-        shim: ShimUsage | None = None
-        if vt is not None:
-            if clock_used is Clock.VIRTUAL:
-                shim = vt.usage()
-                for warning in shim.warnings:
-                    note(warning)
-            vt.close()
-        clock_note = loop.fallback_reason or clock_note
-        try:
-            stream.finish()
-        except Exception as exc:  # noqa: BLE001 - the verdict must not cost the log
-            note(f"bench error in the trace stream: {exc!r}")
-        if stream.late_points:
-            note(f"{stream.late_points} trace samples were stamped more than "
-                 f"{stream.horizon_ns / 1e9:g} s before they arrived: the criteria used them late")
-        timing = timing_summary(loop, rig.tick_ns, telemetry_compute_us, rig.flight.cpu_scale)
-        if started_ns is not None and loop.stats.wall_start_ns:
-            timing["start_to_tick0_s"] = (loop.stats.wall_start_ns - started_ns) / 1e9
-        timing |= cores_used(loop, fc_cpu_ns, rec_cpu_ns, recorded=recorder is not None)
-        if steal_ms is not None:
-            timing["host_steal_ms"] = steal_ms
-            if mode is Mode.REALTIME:
-                steal_note = realtime_note(steal_ms, loop.stats.late_ticks, loop.stats.no_command)
-                if steal_note is not None:
-                    note(steal_note)
-        criteria = criteria_stream.results() if end is EndReason.COMPLETED else []
-        timing_criteria = runner.timing_criteria(timing, logger)
-        criteria += timing_criteria
-        held = realtime_criterion(loop, rig.tick_ns) if mode is Mode.REALTIME and end is EndReason.COMPLETED else None
-        if held is not None:
-            criteria.append(held)
-        counters = logger.counters()
-        rt_scheduling = rt.result if mode is Mode.REALTIME else None
-        stats = None
-        if recorder is not None:
-            logger.finish(end, criteria, timing, message, returncode)
-            final = verdict_metadata(end, criteria, message, returncode, timing, clock_used=clock_used,
-                                     clock_note=clock_note, rt_scheduling=rt_scheduling, cpu_latency=wake.result,
-                                     cpu_scale=rig.flight.cpu_scale, shim=shim, notes=notes)
-            stats = recorder.close(final)
-        if not keep_run_dir:
-            shutil.rmtree(run_dir, ignore_errors=True)
-    return RunResult(
-        log_path=stats.path if stats else None,
-        end_reason=end,
-        criteria=criteria,
-        flight_returncode=returncode,
-        flight_stderr_tail=list(flight.last_stderr),
-        timing=timing,
-        counters=counters,
-        message=message,
-        trace=trace,
-        recorded=dict(stats.messages_by_topic) if stats else {},
-        dropped=stats.dropped if stats else 0,
-        seed=seed,
-        sim_s=loop.stats.ticks * rig.tick_ns / 1e9,
-        clock=clock_used,
-        clock_note=clock_note,
-        shim=shim,
-        notes=notes,
-        rt_scheduling=rt_scheduling,
-        cpu_latency=wake.result,
-    )
+        result = await finish_run(run, end, message, steal_ms, fc_cpu_ns, rec_cpu_ns, rt, wake,
+                                  keep_run_dir=keep_run_dir)
+    return result
 
 
 def run_flight(
@@ -391,6 +349,6 @@ def run_flight(
 
 
 __all__ = [
-    "PORTS", "ConfigError", "RunResult", "deep_merge", "default_log_path", "pump_before", "realtime_criterion",
+    "PORTS", "ConfigError", "RunResult", "RunStartError", "VirtualTimeRequired", "deep_merge", "default_log_path", "pump_before", "realtime_criterion",
     "run_flight", "run_flight_async", "write_flight_config",
 ]

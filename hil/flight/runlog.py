@@ -15,7 +15,7 @@ from functools import partial
 from typing import TYPE_CHECKING, Any
 
 from emulators.base import DeviceEvent
-from emulators.buspirate.device import BusPirateSpi
+from emulators.buspirate.events import BusPirateSpi
 from emulators.maestro.device import TargetsSet
 from emulators.mcp3204.device import Mcp3204Conversion
 from emulators.xsens.events import CommandHandled, SampleSent

@@ -33,9 +33,10 @@ from collections.abc import Callable
 
 from hil import clock
 from hil.analysis.timing import LATE_US
+from hil.analysis.timing_stream import LatencySample
 # the tick loop's records and protocol (the run and the tests import them from here too)
-from hil.flight.tick import (BootError, Clock, EndReason, LatencySample, Mode, SlackWork, TickDevices, TickGate,
-                             TickHook, TickStats)
+from hil.flight.tick import (BootError, Clock, EndReason, Mode, SlackWork, TickDevices, TickGate, TickHook,
+                             TickStats)
 from hil.vtime.scheduler import VirtualClock, resolve_pending
 from hil.vtime.stall import ShimLost
 

@@ -1,4 +1,4 @@
-"""The machine under the bench: real-time scheduling, the CPU latency request, steal time and
-interruptions, the CPU a run's processes use, ``/proc`` parsing, and ``hil perf``, which
-measures what this host allows against the bare lockstep skeleton.
+"""The machine under the bench: real-time scheduling, the CPU latency request, steal time,
+the CPU a run's processes use, ``/proc`` parsing. ``hil perf``'s measurements of what this
+host allows are in :mod:`hil.perf`.
 """

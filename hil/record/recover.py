@@ -4,21 +4,30 @@ A SIGKILLed writer leaves the header, the ``run`` metadata and attachments (writ
 every complete chunk, then a torn record and no summary or footer. Readers that seek
 (``make_reader``) fail on it; ``mcap.stream_reader.StreamReader`` reads every record up to
 the tear, validating chunk CRCs, and we copy them into a fresh, indexed file with the same
-chunking. mcap-python has no recover of its own (research/ecosystem.md section 1).
+chunking. mcap-python has no recover of its own.
+
+Nothing is lost on the way: an output that is the input (same path or same file) is
+refused, a file that is not an MCAP at all is refused (:class:`~hil.record.log_check.LogError`),
+and the result is written to a temporary file beside ``dst`` and renamed over it only once
+it is complete.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import struct
+import secrets
 import zlib
 from pathlib import Path
+from typing import BinaryIO
 
 from mcap.exceptions import McapError
 from mcap.records import Attachment, Channel, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
+from hil.record.log_check import LogError, check_mcap
 from hil.record.writer import LOG_FILE_MODE
 
 try:  # zstd decompression errors of a torn/corrupt chunk
@@ -39,19 +48,54 @@ def recovered_path(src: Path | str) -> Path:
     return p.with_suffix(".recovered.mcap")
 
 
+def _same_file(a: Path, b: Path) -> bool:
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # b does not exist yet
+        return False
+
+
+def _create_temp(dst: Path) -> tuple[int, Path]:
+    """A new hidden file beside ``dst`` (same file system: the rename is atomic), with the
+    mode of a recorded log (LOG_FILE_MODE, narrowed by the umask)."""
+    while True:
+        tmp = dst.with_name(f".{dst.name}.{secrets.token_hex(4)}.tmp")
+        try:
+            return os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, LOG_FILE_MODE), tmp
+        except FileExistsError:
+            continue
+
+
 def recover(src: Path | str, dst: Path | str, *, chunk_size: int = 65536) -> int:
     """Copy every readable record of ``src`` into a valid MCAP ``dst``; returns messages copied.
 
     Header (profile), metadata, attachments, schemas, channels and the messages of every
     complete chunk are kept, in file order. A ``recovery`` metadata record notes the source,
-    the count and where and why reading stopped. ``dst`` is overwritten.
+    the count and where and why reading stopped. ``dst`` is replaced only once the new file is
+    complete. Raises :class:`LogError` (nothing written) when ``src`` is not an MCAP file or
+    ``dst`` is ``src``.
     """
-    src_p, dst_p = Path(src), Path(dst)
+    src_p, dst_p = check_mcap(src), Path(dst)
+    if _same_file(src_p, dst_p):
+        raise LogError(f"{dst_p}: the output is the input file; recover writes a new file (choose another --out)")
+    fd, tmp_name = _create_temp(dst_p)
+    try:
+        with os.fdopen(fd, "wb") as out:
+            n = _copy(src_p, out, chunk_size)
+        os.replace(tmp_name, dst_p)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp_name)
+        raise
+    return n
+
+
+def _copy(src_p: Path, out: BinaryIO, chunk_size: int) -> int:
     n = 0
     stop_reason = "footer"
-    # same mode as a recorded log (LOG_FILE_MODE, narrowed by the umask)
-    fd = os.open(dst_p, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, LOG_FILE_MODE)
-    with src_p.open("rb") as f, os.fdopen(fd, "wb") as out:
+    with src_p.open("rb") as f:
         w = Writer(out, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         started = False
         schemas: dict[int, int] = {0: 0}

@@ -11,12 +11,9 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from hil.record.topics import TopicSpec, topic_spec, wire_topic
-
-if TYPE_CHECKING:  # the recorder imports this module
-    from hil.record.writer import Recorder
 
 STOP = object()
 
@@ -68,24 +65,27 @@ class RecordBatch:
     records ~15 messages, so the bench gathers them here and hands the list over once per
     tick. Same semantics as ``Recorder.log``/``log_wire``: payloads must not be mutated
     after they are added; unknown topics raise at once.
+
+    ``routes`` is the recorder's route per topic, ``put_batch`` its one-put queueing of a list.
     """
 
-    __slots__ = ("_items", "_rec")
+    __slots__ = ("_items", "_routes", "_put_batch")
 
-    def __init__(self, recorder: Recorder) -> None:
-        self._rec = recorder
+    def __init__(self, routes: Mapping[str, Route], put_batch: Callable[[list[QueueItem]], None]) -> None:
+        self._routes = routes
+        self._put_batch = put_batch
         self._items: list[QueueItem] = []
 
     def log(self, topic: str, t_ns: int, payload: dict[str, Any] | Callable[[], dict[str, Any]], t_host_ns: int) -> None:
         """``payload`` may be a no-argument callable returning it: it is then called on the
         writer thread (build big payloads from immutable records off the tick path)."""
-        route = self._rec._routes.get(topic)
+        route = self._routes.get(topic)
         if route is None:
             topic_spec(topic)  # raises UnknownTopicError with the message
         self._items.append((route, Kind.PLAIN, t_ns, t_host_ns, payload))  # type: ignore[arg-type]
 
     def log_wire(self, port: str, direction: str, t_ns: int, t_host_ns: int, data: bytes) -> None:
-        route = self._rec._routes.get(f"/hil/wire/{port}/{direction}")
+        route = self._routes.get(f"/hil/wire/{port}/{direction}")
         if route is None:
             wire_topic(port, direction)  # raises UnknownTopicError
         self._items.append((route, Kind.WIRE, t_ns, t_host_ns, bytes(data)))  # type: ignore[arg-type]
@@ -97,7 +97,7 @@ class RecordBatch:
         """Queue everything gathered so far (one put), then start a new batch."""
         if self._items:
             items, self._items = self._items, []
-            self._rec._put_batch(items)
+            self._put_batch(items)
 
 
 __all__ = ["STOP", "Kind", "QueueItem", "RecordBatch", "Route"]

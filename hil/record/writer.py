@@ -267,7 +267,7 @@ class Recorder(MessageEmitter):
 
     def batch(self) -> RecordBatch:
         """A :class:`RecordBatch` feeding this recorder (one queue put per ``flush()``)."""
-        return RecordBatch(self)
+        return RecordBatch(self._routes, self._put_batch)
 
     def _put_batch(self, items: list[QueueItem]) -> None:
         if self._state is not _State.RUNNING:

@@ -28,9 +28,12 @@ def _safe(text: str) -> str:
 class HilBench:
     """The ``hil_bench`` fixture: starts benches for one test, stops them at teardown."""
 
-    def __init__(self, nodeid: str, name: str, *, keep_dir: Path, keep_all: bool = False) -> None:
+    def __init__(self, nodeid: str, name: str, *, keep_dir: Path, keep_all: bool = False,
+                 require_virtual_time: bool = False) -> None:
         self.nodeid, self.name = nodeid, name
         self.keep_dir, self.keep_all = keep_dir, keep_all
+        #: --hil-require-virtual-time: every bench's rig gets [flight] require_virtual_time = true
+        self.require_virtual_time = require_virtual_time
         self.benches: list[Bench] = []
         self.kept: list[Path] = []
         self._tmp: Path | None = None
@@ -51,6 +54,10 @@ class HilBench:
         from hil.testing.bench import Bench  # the emulators' modules load with the first bench
 
         rig_obj = rig if isinstance(rig, Rig) else load_rig(rig)
+        if self.require_virtual_time:
+            import dataclasses
+
+            rig_obj = dataclasses.replace(rig_obj, flight=dataclasses.replace(rig_obj.flight, require_virtual_time=True))
         scen, source = build_scenario(rig_obj, scenario, sticks=sticks, flight=flight, duration_s=duration_s,
                                       name=_safe(self.name))
         # as `hil run --duration` does: a shorter run keeps the scenario's later faults (unplayed)
@@ -92,7 +99,10 @@ class HilBench:
                 try:
                     log: Path | None = (await b.stop()).log_path
                 except BaseException as exc:  # noqa: BLE001 - the run ended by an interrupt: its log is final
-                    if exc is not b.interrupted:
+                    # or by an error the test was already given (a run that could not start)
+                    task = b._task
+                    raised = task is not None and task.done() and not task.cancelled() and task.exception() is exc
+                    if exc is not b.interrupted and not raised:
                         raise
                     log = b.log_path
                 if b.stalls:

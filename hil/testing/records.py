@@ -9,14 +9,14 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from hil.faults import FaultHandle
-    from hil.testing.bench import Bench
 
 S = 1_000_000_000  #: ns per s
 #: host-clock runs: event-loop stalls longer than this are reported (the IMU watchdog is 0.1 s)
 STALL_WARN_S = 0.05
 
-#: a test's condition on the bench, judged at a tick; its truth value counts
-Predicate = Callable[["Bench"], object]
+#: a test's condition on the bench, judged at a tick: called with the ``Bench``
+#: (hil.testing.bench, typed there by the waits), its truth value counts
+Predicate = Callable[[Any], object]
 
 
 class RunEnded(AssertionError):

@@ -8,26 +8,13 @@ from __future__ import annotations
 import asyncio
 import inspect
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, Self
 
 from hil.testing.observe import BenchObserver
-from hil.testing.records import STALL_WARN_S, S, Predicate, PredicateFailed, RunEnded, SimTimeout
-
-if TYPE_CHECKING:
-    from hil.testing.bench import Bench
+from hil.testing.records import STALL_WARN_S, S, PredicateFailed, RunEnded, SimTimeout
+from hil.testing.state import Watch
 
 _STALL_PERIOD_S = 0.02  #: the stall watch's period, s
-
-
-@dataclass
-class _Watch:
-    kind: str  # "until" | "always" | "time"
-    predicate: Predicate | None
-    deadline_ns: int
-    future: asyncio.Future[float]
-    label: str
-    t0_ns: int
 
 
 def _label_of(predicate: Callable[..., object]) -> str:
@@ -101,13 +88,12 @@ class BenchSimTime(BenchObserver):
             self._judge(t_ns)
 
     def _judge(self, t_ns: int) -> None:
-        # predicates take the Bench (this class's one subclass): the cast only tells mypy so
-        keep: list[_Watch] = []
+        keep: list[Watch] = []
         for w in self._watches:
             if w.future.done():
                 continue
             try:
-                ok = True if w.predicate is None else bool(w.predicate(cast("Bench", self)))
+                ok = True if w.predicate is None else bool(w.predicate(self))
             except Exception as exc:  # noqa: BLE001 - the predicate's error, raised in the test
                 w.future.set_exception(exc)
                 continue
@@ -153,10 +139,10 @@ class BenchSimTime(BenchObserver):
             self._stall_handle = asyncio.get_running_loop().call_later(_STALL_PERIOD_S, self._stall_tick)
 
     # -- waiting ------------------------------------------------------------------------------------
-    async def _watch(self, kind: str, predicate: Predicate | None, span_ns: int, label: str) -> float:
+    async def _watch(self, kind: str, predicate: Callable[[Self], object] | None, span_ns: int, label: str) -> float:
         fut: asyncio.Future[float] = asyncio.get_running_loop().create_future()
         t0 = self.loop.t_ns if self.loop is not None else 0
-        self._watches.append(_Watch(kind, predicate, max(t0, 0) + span_ns, fut, label, t0))
+        self._watches.append(Watch(kind, predicate, max(t0, 0) + span_ns, fut, label, t0))
         self._gate_open.set()
         return await self._outcome(fut, label)
 
@@ -184,13 +170,13 @@ class BenchSimTime(BenchObserver):
         raise RunEnded(f"the run ended ({r.end_reason.value}{': ' + r.message if r.message else ''}) "
                        f"at t = {r.sim_s:.4f} s, before {label}; MCAP {r.log_path}\nflight stderr:\n{tail}")
 
-    async def until(self, predicate: Predicate, timeout_s: float) -> float:
+    async def until(self, predicate: Callable[[Self], object], timeout_s: float) -> float:
         """Wait for the first tick (from the next one) at which ``predicate(bench)`` is true;
         return its sim time (s). ``timeout_s`` is sim time: :class:`SimTimeout` after it,
         :class:`RunEnded` if the run ends first."""
         return await self._watch("until", predicate, round(timeout_s * S), _label_of(predicate))
 
-    async def always(self, predicate: Predicate, for_s: float) -> float:
+    async def always(self, predicate: Callable[[Self], object], for_s: float) -> float:
         """Check ``predicate(bench)`` at every tick for ``for_s`` of sim time; return the sim
         time (s) at the end, or raise :class:`PredicateFailed` at the first false tick."""
         return await self._watch("always", predicate, round(for_s * S), _label_of(predicate))

@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from hil.testing.records import S, EscCommand
+from hil.testing.records import S, EscCommand, Predicate
 
 if TYPE_CHECKING:
     from emulators.base import DeviceEvent
@@ -21,7 +22,18 @@ if TYPE_CHECKING:
     from hil.flight.run import RunResult
     from hil.flight.scenario_runner import ScenarioRunner
     from hil.flight.tickloop import TickLoop
-    from hil.testing.simtime import _Watch
+
+
+@dataclass
+class Watch:
+    """One wait of the test (``until``, ``always``, ``run_for``), judged at each tick; sim ns."""
+
+    kind: str  # "until" | "always" | "time"
+    predicate: Predicate | None
+    deadline_ns: int
+    future: asyncio.Future[float]
+    label: str
+    t0_ns: int
 
 
 class BenchState:
@@ -55,7 +67,7 @@ class BenchState:
         self._own_schedule = False
         self._setup_error: Exception | None = None
         self._task: asyncio.Task[RunResult] | None = None
-        self._watches: list[_Watch] = []
+        self._watches: list[Watch] = []
         self._requests: list[tuple[Callable[[int], Any], asyncio.Future[Any]]] = []
         self._before: Callable[[int, int], None] | None = None
         self._after: Callable[[int, int], None] | None = None

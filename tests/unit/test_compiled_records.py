@@ -1,7 +1,7 @@
 """The frozen records built every tick write their ``__init__`` out, and it stays the one
-``@dataclass`` would have generated (docs/performance.md, eighth round).
+``@dataclass`` would have generated (docs/performance.md).
 
-mypyc compiles the modules these records live in (setup.py), but not the methods the stdlib
+mypyc compiles the modules these records live in (`hil build`, hil/native), but not the methods the stdlib
 ``@dataclass`` decorator generates (mypyc/mypyc#817): a frozen dataclass's generated
 ``__init__`` runs interpreted, one ``object.__setattr__`` call at a time, about 15 times the
 cost of the same body compiled. The records built on every 400 Hz tick therefore say
@@ -40,18 +40,18 @@ from typing import Any
 
 import pytest
 
-from emulators.buspirate.device import BusPirateSpi
+from emulators.buspirate.events import BusPirateSpi
 from emulators.maestro.device import TargetsSet
 from emulators.mcp3204.device import Mcp3204Conversion
 from emulators.rc.ppm import PpmEdge, PpmFrame
 from emulators.rc.sbus import PpmDecoded
 from emulators.spidriver.device import SpiDriverSpi
 from emulators.xbee.link import RfDelivered
-from emulators.xbee.module import RfPacket
+from emulators.xbee.packets import RfPacket
 from emulators.xsens.errors import Measured
 from emulators.xsens.events import CommandHandled, SampleSent
 from emulators.xsens.sample import Built, Ctx
-from hil.flight.devices import LatencySample
+from hil.analysis.timing_stream import LatencySample
 from hil.plant.records import PlantState, SensorTruth
 from hil.transport.base import WireRecord
 from hil.vtime.control import ThreadView
@@ -104,11 +104,11 @@ def _written_annotations(cls: type) -> dict[str, tuple[str, dict[str, Any]]]:
     found: dict[str, tuple[str, dict[str, Any]]] = {}
     for klass in reversed(cls.__mro__):
         module = sys.modules.get(klass.__module__)
-        file = getattr(module, "__file__", None)
-        if module is None or file is None:
+        if module is None:
             continue
-        # a compiled module is ``<stem>.<abi tag>.so`` beside its ``<stem>.py``
-        source = Path(file).with_name(Path(file).name.split(".")[0] + ".py")
+        # the project's sources, wherever the module was loaded from: a compiled build lives
+        # in the environment (hil/native), not beside them
+        source = ROOT.joinpath(*klass.__module__.split(".")).with_suffix(".py")
         node = _class_nodes(source).get(klass.__qualname__) if source.exists() else None
         for stmt in node.body if node is not None else []:
             if isinstance(stmt, ast.AnnAssign) and isinstance(stmt.target, ast.Name):

@@ -59,19 +59,22 @@ def _within(module: str, packages: set[str]) -> bool:
 #: the packages of hil/ that do one job each (docs/architecture.md), and what each may not
 #: import when it runs. The layers beneath them (plant, faults, record, transport, vtime,
 #: config) import none of them.
-JOBS = {"hil.flight", "hil.analysis", "hil.fleet", "hil.host", "hil.testing", "hil.cli", "hil.pytest_plugin"}
+JOBS = {"hil.flight", "hil.analysis", "hil.fleet", "hil.host", "hil.perf", "hil.testing", "hil.cli",
+        "hil.pytest_plugin"}
 FORBIDDEN = {
     # beneath the jobs
     "hil/plant": JOBS, "hil/faults": JOBS, "hil/record": JOBS, "hil/transport": JOBS, "hil/vtime": JOBS,
     "hil/config": JOBS,
     # what a run or a log says: read-only, never starts a flight
     "hil/analysis": JOBS - {"hil.analysis"},
-    # one flight knows nothing of many flights, of users' tests or of the command line
-    "hil/flight": {"hil.fleet", "hil.testing", "hil.cli", "hil.pytest_plugin"},
-    "hil/fleet": {"hil.testing", "hil.cli", "hil.pytest_plugin"},
-    # the host's figures; only hil perf (hil/host/perf.py) flies
+    # one flight knows nothing of many flights, of users' tests, of benchmarks or of the command line
+    "hil/flight": {"hil.fleet", "hil.testing", "hil.perf", "hil.cli", "hil.pytest_plugin"},
+    "hil/fleet": {"hil.testing", "hil.perf", "hil.cli", "hil.pytest_plugin"},
+    # the host's figures
     "hil/host": JOBS - {"hil.host"},
-    "hil/testing": {"hil.fleet", "hil.cli"},
+    "hil/testing": {"hil.fleet", "hil.perf", "hil.cli"},
+    # hil perf: measures the bench, flies it, and nothing but the command uses it
+    "hil/perf": {"hil.fleet", "hil.testing", "hil.cli", "hil.pytest_plugin"},
 }
 
 
@@ -80,22 +83,8 @@ FORBIDDEN = {
 def test_hil_packages_keep_to_their_jobs(path: Path) -> None:
     package = next(p for p in FORBIDDEN if path.is_relative_to(ROOT / p))
     forbidden = FORBIDDEN[package]
-    if path.relative_to(ROOT).as_posix() == "hil/host/perf.py":
-        forbidden = forbidden - {"hil.flight"}
     bad = [(line, mod) for line, mod in _runtime_imports(path) if _within(mod, forbidden)]
     assert not bad, f"{path}: {package} may not import {sorted(forbidden)} (docs/architecture.md): {bad}"
-
-
-@pytest.mark.parametrize("path", _modules("hil") + _modules("tests") + _modules("examples"),
-                         ids=lambda p: str(p.relative_to(ROOT)))
-def test_nothing_of_ours_imports_a_moved_path(path: Path) -> None:
-    from hil._moved import MOVED
-
-    if path.name == "test_moved_paths.py":
-        return
-    # the types-only imports too: they are read by mypy and by people
-    bad = [(line, mod) for line, mod in _runtime_imports(path, types_too=True) if mod in MOVED]
-    assert not bad, f"{path}: import from the new path (hil/_moved.py): {bad}"
 
 
 @pytest.mark.parametrize("path", _modules("flightcode"), ids=lambda p: str(p.relative_to(ROOT)))

@@ -82,7 +82,7 @@ def test_the_thread_and_what_it_starts_are_raised_for_the_block() -> None:
 def test_hil_perf_s_bare_pacer_runs_on_the_realtime_run_s_scheduling() -> None:
     """`hil perf` compares the realtime run's lateness with the bare pacer's: both on the same
     scheduling, and the thread is put back after the pacer's loop."""
-    from hil.host.perf import bare_timer_loop
+    from hil.perf.measure import bare_timer_loop
 
     before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
     rt = RealtimePriority(RtPolicy.AUTO, 10)

@@ -6,7 +6,7 @@ import asyncio
 
 import pytest
 
-from hil.flight.run import _despite_cancel
+from hil.flight.run_finish import despite_cancel as _despite_cancel
 
 
 async def test_a_cancel_during_cleanup_lets_the_step_finish_and_is_taken_back() -> None:

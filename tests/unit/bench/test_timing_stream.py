@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from hil.flight.tickloop import TickStats
-from hil.flight.devices import LatencySample
+from hil.analysis.timing_stream import LatencySample
 from hil.analysis.timing_stream import STREAM_RESOLUTION, LatencyStats, StreamingStats
 from tests.unit.bench.traced import traced
 

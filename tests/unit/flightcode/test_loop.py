@@ -219,22 +219,19 @@ def test_zero_velocity_update_waits_after_a_landing() -> None:
     assert after and min(after) == landed_ns + 1_000_000_000  # exactly rest_after_s later
 
 
-def test_late_imu_samples_in_lockstep_cost_no_flight() -> None:
-    # A loaded bench holds the next sample back past the watchdog while sim time stands still:
-    # the watchdog fires (motors to minimum), and the sample that then arrives is the next one.
+def test_an_imu_timeout_in_flight_disarms_even_when_the_next_sample_follows_on() -> None:
+    # The next sample is the very next one in sensor time (only its delivery was late): the
+    # watchdog still cut the motors, and the flight code disarms; flying again needs arming.
     loop, w, _ = run(pilot, 1200)
     assert loop.modes.mode is Mode.FLYING
     out = io.StringIO()
     loop.log = Logger(out)
-    for i in range(5):  # five stalls, one or three timeouts long
-        w.imu_stalled_reads = 3 if i % 2 else 1
-        for _ in range(w.imu_stalled_reads):
-            assert loop.step() is None and w.esc.pulses_us == [1000.0] * 4
-        loop.run(max_iterations=100)
+    w.imu_stalled_reads = 1
+    assert loop.step() is None and w.esc.pulses_us == [1000.0] * 4
+    loop.run(max_iterations=100)
     text = out.getvalue()
-    assert loop.counters["imu_timeouts"] == 9 and text.count("new=flying cause=imu_resumed") == 5
-    assert loop.modes.mode is Mode.FLYING and abs(w.plant.z_m - 2.0) < 0.3
-    assert "new=disarmed" not in text
+    assert loop.counters["imu_timeouts"] == 1 and "new=disarmed cause=imu_back" in text
+    assert loop.modes.mode is Mode.DISARMED and "imu_resumed" not in text
 
 
 def test_adc_garbage_in_flight_resyncs_and_keeps_flying() -> None:
@@ -397,21 +394,3 @@ def test_corrupted_adc_data_with_good_acks_is_dropped() -> None:
     assert abs(loop.kf.z_m - z_hat) < 0.05 and loop.kf.counters["baro_rejected"] == 0
     loop.run(max_iterations=400)
     assert loop.plausible.refused == 4 and abs(w.plant.z_m - 2.0) < 0.3
-
-
-def test_a_delivery_stall_during_a_failsafe_descent_keeps_the_descent_going() -> None:
-    # An IMU timeout (lockstep delivery stall) in the middle of the failsafe descent: the
-    # failsafe resumes with its setpoint where it was, not restarted from the lost stick's 0 m.
-    loop, w, _ = run(lambda t: pilot(t, lost_at=4.0), 2000)  # 2 m, RC lost at 4 s
-    assert loop.modes.mode is Mode.FAILSAFE_RC and loop.descent.active
-    refs = []
-    for i in range(3):
-        refs.append(loop._z_ref_m)
-        w.imu_stalled_reads = 1
-        assert loop.step() is None and loop.modes.mode is Mode.FAILSAFE_IMU
-        loop.run(max_iterations=40)
-        assert loop.modes.mode is Mode.FAILSAFE_RC
-    refs.append(loop._z_ref_m)
-    # 40 samples of sensor time per round, the stall none: 40 x 2.5 ms x 0.5 m/s
-    assert [a - b for a, b in zip(refs, refs[1:])] == pytest.approx([0.05] * 3, abs=1e-9)
-    assert refs[-1] > 1.0

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hil.plant import Plant, PlantParams, PlantState, SensorMountParams, SensorTruth
-from hil.plant.bench import measure_tick_cost
+from hil.perf.plant_tick import measure_tick_cost
 from hil.plant.quat import from_euler, mul, rotate, rotate_inv
 
 from .support import NO_DRAG, STIFF_BATTERY, TICK_NS, G, hover_at, make_plant, run

@@ -24,6 +24,7 @@ from hil.record import (
     recover,
     recovered_path,
 )
+from hil.record.log_check import LogError
 from tests.unit.record.support import RUN_START_NS, record_examples
 from tests.unit.record.test_independent_read import validate_file
 
@@ -156,15 +157,23 @@ def test_recovering_a_complete_file_keeps_everything(tmp_path: Path) -> None:
     assert meta["summary"] == read_metadata(rec.path)["summary"]
 
 
-def test_garbage_and_empty_files_do_not_crash(tmp_path: Path) -> None:
-    for name, content in [("empty.mcap.part", b""), ("junk.mcap.part", os.urandom(5000)),
-                          ("magic-only.mcap.part", b"\x89MCAP0\r\n")]:
-        src = tmp_path / name
-        src.write_bytes(content)
-        dst = tmp_path / f"{name}.out.mcap"
-        assert recover(src, dst) == 0
-        validate_file(dst)
-        assert "recovery" in read_metadata(dst)
+def test_a_torn_header_recovers_to_an_empty_valid_log(tmp_path: Path) -> None:
+    """Killed right after the magic: nothing to keep, but the result is still a valid MCAP."""
+    src = tmp_path / "magic-only.mcap.part"
+    src.write_bytes(b"\x89MCAP0\r\n")
+    dst = tmp_path / "out.mcap"
+    assert recover(src, dst) == 0
+    validate_file(dst)
+    assert "recovery" in read_metadata(dst)
+
+
+@pytest.mark.parametrize(("name", "content"), [("empty.mcap.part", b""), ("junk.mcap.part", os.urandom(5000))])
+def test_a_file_that_is_not_an_mcap_is_refused_and_nothing_written(tmp_path: Path, name: str, content: bytes) -> None:
+    src = tmp_path / name
+    src.write_bytes(content)
+    with pytest.raises(LogError, match=name):
+        recover(src, tmp_path / "out.mcap")
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
 
 
 @pytest.mark.parametrize(("name", "default"), [("run.mcap.part", "run.mcap"), ("run.mcap", "run.recovered.mcap"),

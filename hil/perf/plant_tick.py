@@ -1,6 +1,6 @@
 """Cost of one plant tick, for the performance budget (research/limits.md section 4).
 
-``python -m hil.plant.bench [n_ticks]`` prints the median and p99 cost in microseconds of
+``python -m hil.perf.plant_tick [n_ticks]`` prints the median and p99 cost in microseconds of
 one 2.5 ms tick with the default sub-steps: ``step`` alone, and ``step`` + ``state`` +
 ``sensors()`` (what the bench does every tick). The vehicle hovers at 10 m in light
 turbulence with throttles that wiggle around the hover value, so the rotor lag, drag and

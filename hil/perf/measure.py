@@ -4,13 +4,13 @@
 * recording: the cost of one ``log()`` on the tick path and the writer's sustained rate;
 * lockstep: the real-time factor of the full stack (plant, all emulators, the flight code
   as a subprocess, recording) and the bench's own cost per tick, interleaved with the bare
-  lockstep skeleton (``hil.host.skeleton``: the same exchanges over ptys with pyserial, nothing
+  lockstep skeleton (``hil.perf.skeleton``: the same exchanges over ptys with pyserial, nothing
   else), so the ratio says how much of what the transport allows the bench reaches; and the
   ceiling the flight-code process's CPU per sample sets on the RTF while it costs that much;
 * realtime: the IMU emit-period error (the pacer's lateness) and the flight code's response
   latency (IMU emitted -> ESC command) p50/p99/max, next to a bare timer loop measured in
   the same process right before (the floor of this machine), with the steal time the run
-  saw and the host's interruptions of a thread that only runs (hil/host/hostnoise.py): what no
+  saw and the host's interruptions of a thread that only runs (hil/perf/hostnoise.py): what no
   guest priority prevents.
 
 Numbers are medians over the runs made; machines are shared and noisy, so quote medians
@@ -30,7 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from hil import clock
-from hil.host import cpulatency, hostnoise
+from hil.host import cpulatency
+from hil.perf import hostnoise
 from hil.host.rtsched import RealtimePriority, RtPolicy, for_rig
 
 
@@ -64,8 +65,8 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
     """Run every benchmark; returns the table rows."""
     from hil import native
     from hil.flight.tickloop import Mode
-    from hil.plant.bench import measure_tick_cost
-    from hil.record.perf import measure_recording
+    from hil.perf.plant_tick import measure_tick_cost
+    from hil.perf.recording import measure_recording
     from hil.config.rig import load_rig
     from hil.flight.run import run_flight
 
@@ -89,7 +90,7 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         rep.add("record log() call (median)", rec.log_us_median, "us", f"p99 {rec.log_us_p99:.3g} us, on the tick path")
         rep.add("record writer rate", rec.writer_msgs_per_s, "msg/s", "writer thread, zstd 64 KiB chunks")
 
-        from hil.host.skeleton import run_skeleton
+        from hil.perf.skeleton import run_skeleton
 
         rtfs, costs, cpus, lat50, lat99, skel, fc, cores = [], [], [], [], [], [], [], []
         skel_bench, skel_flight = [], []
@@ -111,7 +112,7 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
                 f"{lockstep_runs} runs of {lockstep_s:g} s hover, everything recorded; runs: "
                 + ", ".join(f"{r:.2f}" for r in rtfs))
         rep.add("bare lockstep skeleton RTF (median)", statistics.median(skel), "x",
-                "hil.host.skeleton, interleaved with the runs above; runs: " + ", ".join(f"{r:.2f}" for r in skel))
+                "hil.perf.skeleton, interleaved with the runs above; runs: " + ", ".join(f"{r:.2f}" for r in skel))
         rep.add("bench / skeleton RTF", statistics.median(rtfs) / statistics.median(skel), "",
                 "share of what the pty transport allows (target >= 0.6)")
         rep.add("lockstep bench CPU per tick (median)", statistics.median(cpus), "us",
@@ -122,7 +123,7 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
         # the scheduling add on top of it.
         skel_bench_us = statistics.median(skel_bench)
         rep.add("skeleton bench-side CPU per tick (median)", skel_bench_us, "us",
-                "hil.host.skeleton's bench process: the pty writes and reads and asyncio's wake-ups alone; "
+                "hil.perf.skeleton's bench process: the pty writes and reads and asyncio's wake-ups alone; "
                 f"flight side {statistics.median(skel_flight):.3g} us")
         rep.add("lockstep bench CPU per tick above the skeleton's", statistics.median(cpus) - skel_bench_us, "us",
                 "the plant, the device models, recording and the virtual-time scheduling")
@@ -178,7 +179,7 @@ def measure(*, lockstep_runs: int = 3, lockstep_s: float = 10.0, realtime_s: flo
                 statistics.median(c.per_10s() for c in noise), "",
                 f"a thread that only reads the clock, {noise[0].policy}, {noise_s:g} s on each of {len(noise)} CPUs: "
                 + ", ".join(f"CPU {c.cpu} {len(c.gaps_ns)} ({c.lost_ms:.3g} ms lost)" for c in noise)
-                + " (hil/host/hostnoise.py)")
+                + " (hil/perf/hostnoise.py)")
         rep.add("longest host interruption", longest.longest_us, "us",
                 f"CPU {longest.cpu}: a sample caught by one this long misses its {tick_ms:g} ms tick")
     return rep

@@ -15,7 +15,7 @@ k+1 when the ESC command of tick k has arrived. The flight side uses pyserial wi
 timeouts, as ``flightcode`` does. The ratio of the bench's RTF to this one says how much of
 what the transport allows the bench reaches (``hil perf``).
 
-Run the flight side as ``python -m hil.host.skeleton IMU RC ADC ESC TELEMETRY`` (slave paths).
+Run the flight side as ``python -m hil.perf.skeleton IMU RC ADC ESC TELEMETRY`` (slave paths).
 """
 
 from __future__ import annotations
@@ -86,7 +86,7 @@ async def run_skeleton(seconds: float) -> SkeletonResult:
         os.set_blocking(m, False)
         masters[name], slaves[name] = m, s
         paths.append(os.ttyname(s))
-    proc = await asyncio.create_subprocess_exec(sys.executable, "-m", "hil.host.skeleton", *paths,
+    proc = await asyncio.create_subprocess_exec(sys.executable, "-m", "hil.perf.skeleton", *paths,
                                                 stdin=asyncio.subprocess.DEVNULL, stderr=asyncio.subprocess.DEVNULL)
     counts = {"adc": 0, "esc": 0}
     waiter: list[asyncio.Future[None] | None] = [None]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from hil.host.skeleton import TICK_NS, run_skeleton
+from hil.perf.skeleton import TICK_NS, run_skeleton
 
 pytestmark = pytest.mark.pty
 

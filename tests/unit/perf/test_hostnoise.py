@@ -1,4 +1,4 @@
-"""The host-interruption probe of `hil perf` (hil/host/hostnoise.py): which steps count as gaps,
+"""The host-interruption probe of `hil perf` (hil/perf/hostnoise.py): which steps count as gaps,
 and that the probe runs one pinned process per CPU and gives each CPU's figures (no timing
 asserted: what the host does is the measurement, not a property of the code)."""
 
@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from hil.host.hostnoise import CpuNoise, measure, spin_window
+from hil.perf.hostnoise import CpuNoise, measure, spin_window
 
 
 def _clock(times: list[int]):

@@ -1,0 +1,86 @@
+"""Ask the flight code whether the ``[flight]`` overrides make a valid config, before a run.
+
+A rig's ``[flight.overrides]`` and a scenario's ``[flight]`` are laid over the flight code's
+config template (hil/flight/run_files.py); the bench cannot validate the result itself
+(``hil`` never imports ``flightcode``). So it writes the merged config, as the run would, and
+runs the rig's flight command with ``--check-config`` (flightcode/check.py): one JSON line
+says valid, or names the key and the reason. The answer is turned into a ConfigError naming
+the file the key came from: the scenario, the rig, or the template.
+
+Only a command that runs the stock flight code (``-m flightcode``) is asked; another
+program's config is its own business, and its boot says what it thinks of it.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+from hil.config import ConfigError
+from hil.config.rig import Rig
+from hil.config.scenario import Scenario
+from hil.flight.process import expand_command
+from hil.flight.run_files import write_flight_config
+
+CHECK_FLAG = "--check-config"
+#: wall seconds the check may take (an interpreter start and the config's imports: about 0.5 s)
+CHECK_TIMEOUT_S = 60.0
+_PORTS = ("imu", "adc", "rc", "esc", "telemetry")
+
+
+def check_command(rig: Rig) -> tuple[str, ...] | None:
+    """The rig's flight command with ``--check-config``; None unless it runs ``-m flightcode``."""
+    cmd = tuple(rig.flight.command)
+    runs_flightcode = any(cmd[i:i + 2] == ("-m", "flightcode") for i in range(len(cmd) - 1))
+    return (*cmd, CHECK_FLAG) if runs_flightcode else None
+
+
+def _has_key(table: Mapping[str, Any], dotted: str) -> bool:
+    node: Any = table
+    for part in dotted.split("."):
+        if not isinstance(node, Mapping) or part not in node:
+            return False
+        node = node[part]
+    return True
+
+
+def _where(rig: Rig, scenario: Scenario, source: Path | None, key: str) -> str:
+    """The file (and table) a bad key of the merged config came from."""
+    if key and _has_key(scenario.flight, key):
+        return f"{source or scenario.name}: [flight] {key}"
+    if key and _has_key(rig.flight.overrides, key):
+        return f"{rig.path}: [flight.overrides] {key}"
+    return f"{rig.flight_config_path}: {key}" if key else str(rig.flight_config_path)
+
+
+def check_flight_config(rig: Rig, scenario: Scenario, source: Path | None = None) -> None:
+    """Raise :class:`ConfigError` naming file, key and reason if the flight code refuses the
+    config this run would give it (module docstring). Nothing else is started."""
+    template = check_command(rig)
+    if template is None:
+        return
+    with tempfile.TemporaryDirectory(prefix="hilcheck-") as tmp:
+        ports = {name: SimpleNamespace(client_path=f"{tmp}/{name}") for name in _PORTS}
+        config = write_flight_config(rig, scenario, ports, Path(tmp))  # type: ignore[arg-type]
+        argv = expand_command(template, config=config)
+        try:
+            done = subprocess.run(argv, stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                                  timeout=CHECK_TIMEOUT_S, check=False)
+        except (OSError, subprocess.TimeoutExpired):
+            return  # the run's own start says what is wrong with the command
+    for line in reversed(done.stdout.splitlines()):
+        try:
+            verdict = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(verdict, dict) and "flightcode_check" in verdict:
+            if not verdict.get("ok"):
+                key = str(verdict.get("key", ""))
+                raise ConfigError(f"{_where(rig, scenario, source, key)}: {verdict.get('reason', 'invalid')} "
+                                  "(the flight code's own check, python -m flightcode --check-config)")
+            return
