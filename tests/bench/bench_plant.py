@@ -3,7 +3,7 @@
 Run: ``.venv/bin/python tests/bench/bench_plant.py [N_TICKS]`` (same as
 ``python -m hil.perf.plant_tick``). Prints the median and p99 of ``plant.step`` alone and of
 ``step + state + sensors()`` (what the bench does every tick) with the default RK4
-sub-steps. Budget (research/limits.md section 4): well under 10 % of the tick.
+sub-steps. Budget (docs/performance.md, What bounds the speed): well under 10 % of the tick.
 """
 
 from __future__ import annotations

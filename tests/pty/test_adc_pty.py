@@ -3,7 +3,7 @@ pyBusPirateLite's and flashrom's entry sequences, and the unmodified PyPI ``spid
 client against the SPIDriver emulator.
 
 Handshakes as read in juhasch/pyBusPirateLite (BBIO_base.enter_bb, SPI) and flashrom
-buspirate_spi.c (research/protocols.md §7.1); the SPIDriver client is spidriver 1.1.1 from
+buspirate_spi.c (docs/protocols.md §7.1); the SPIDriver client is spidriver 1.1.1 from
 PyPI, unmodified. Blocking calls run in threads; pyserial timeouts are failure guards or the
 clients' own protocol (pyBusPirateLite polls with 0.1 s reads), never timing assertions.
 """

@@ -1,6 +1,6 @@
 """The XSENS emulator behind a real pty, driven by pyserial clients written like the real ones.
 
-Clients (research/protocols.md §1.12, read as specs, not copied):
+Clients (docs/protocols.md §1.12, read as specs, not copied):
 * ethz-asl/ethzasl_xsens_driver ``mtdevice.py``: drain input before each write; GoToConfig
   -> ReqConfiguration (exactly 118 bytes, unpacked with the driver's layout) ->
   SetOutputConfiguration -> GoToMeasurement, then MTData2.

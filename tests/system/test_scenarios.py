@@ -167,7 +167,7 @@ async def test_hover_that_never_took_off_fails(tmp_path: Path) -> None:
 
 
 async def test_altitude_step_settles_on_the_seed_that_used_to_swing_out(fly) -> None:
-    """Issue 13: with the paper.md 3.2 LQI weights the rotors' inflow damping made the
+    """Issue 13: with the docs/controllers.md 3.2 LQI weights the rotors' inflow damping made the
     altitude loop slow and underdamped; seed 3 swung back out of the +-5 % band and settled
     only 10.2 s after the step (seed 5: 11.1 s). With the rig's weights (rigs/paper-quad.toml
     [flight.overrides.altitude]) it settles in about 5 s (5.5 s measured) with about 0.5 m
@@ -185,7 +185,7 @@ async def test_payload_barely_changes_tracking_on_twin_runs(tmp_path: Path) -> N
     payload event, same seed, same turbulence (sample for sample). The tracking RMS over
     27-39 s (the payload is aboard from 22 s) differs by less than 15 %. It holds because the
     flight code's mixer is linear in throttle (the torque gain rises with the collective, as
-    paper.md 2.7 models the paper's vehicle); with the "thrust" differential it is +15-22 %
+    docs/controllers.md 2.7 models the paper's vehicle); with the "thrust" differential it is +15-22 %
     (docs/aerodynamics.md section 4.1)."""
     import numpy as np
 

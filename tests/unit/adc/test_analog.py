@@ -3,7 +3,7 @@
 Reference values: NXP MPX5100 datasheet (Vout = Vs (0.009 P - 0.095); 0.2 / 4.7 V at 15 /
 115 kPa, Vs = 5 V; error band 2.5 kPa x temperature multiplier; 1 ms response), ADI ADXL335
 Rev. B (0.1 Vs per g, Vs/2 at 0 g, f = 1 / (2 pi 32k C), rms noise = density sqrt(pi/2 f)),
-research/protocols.md §3 table and paper.md §3.4.
+docs/protocols.md §3 table and docs/controllers.md §3.4.
 """
 
 from __future__ import annotations
@@ -205,7 +205,7 @@ def test_default_rig_codes_and_table_value_without_conditioning() -> None:
     assert codes == [2048, 1351, 1351, 1622]  # 2.5 V, 1.65 V, 1.65 V, 1.98 V
     bare = AnalogFrontEnd(no_conditioning(quiet()), np.random.default_rng(0))
     bare.update(0, P0, REST, 25.0)
-    assert quantize(bare.volts(0, 0), 5.0) == 3346  # protocols.md §3: h = 0 m
+    assert quantize(bare.volts(0, 0), 5.0) == 3346  # docs/protocols.md §3: h = 0 m
 
 
 def test_field_offset_helper() -> None:

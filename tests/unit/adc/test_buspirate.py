@@ -100,7 +100,7 @@ def talk_banner_tail() -> bytes:
 def test_golden_reads_all_channels() -> None:
     bp = spi_ready()
     assert [read_channel(bp, ch) for ch in range(4)] == CODES
-    # pipelined in one write, as protocols.md §7.1 and flashrom's old-firmware path do
+    # pipelined in one write, as docs/protocols.md §7.1 and flashrom's old-firmware path do
     rx = talk(bp, bytes.fromhex("02 13 06 40 00 00 03"))
     assert rx == bytes.fromhex("01 01 00 03 33 99 01")  # 4th byte: B1..B8 LSB first
     ev = bp.take_events()

@@ -11,7 +11,7 @@ random voltages.
 
 Golden bytes: DS21298E Fig. 6-1 (request ``06 40 00`` reads CH1, reply ``?? 0B BB``
 with the code in the low 12 bits); the Bus Pirate's pipelined transaction ``02 1n <data>
-03`` answers ``01 01 <miso> 01`` (DP wiki "SPI (binary)", research/protocols.md §7.1).
+03`` answers ``01 01 <miso> 01`` (DP wiki "SPI (binary)", docs/protocols.md §7.1).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 Golden sources: Microchip DS21298E Fig. 6-1 (3-byte mode 0,0 exchange: MOSI 0000 01 S D2,
 D1 D0 xxxxxx, xxxxxxxx; MISO ??? 0 B11..B8, B7..B0), Table 5-1 (channel codes), §5.0 (LSB
-first after B0, then zeros); research/protocols.md §2-3 (h = 0 m -> 101.325 kPa -> 4.085 V
+first after B0, then zeros); docs/protocols.md §2-3 (h = 0 m -> 101.325 kPa -> 4.085 V
 -> code 3346 at VREF 5 V).
 """
 

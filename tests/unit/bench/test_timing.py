@@ -102,7 +102,7 @@ def test_realtime_is_held_when_lateness_stays_within_a_tick() -> None:
 
     rng = np.random.default_rng(3)
     late_us = np.abs(rng.normal(0, 150, 8000))
-    late_us[::1000] = 2_900.0  # this machine's rare scheduling gaps (limits.md): still held
+    late_us[::1000] = 2_900.0  # this machine's rare scheduling gaps (docs/time.md, Host interruptions): still held
     v = realtime_verdict(late_us)
     assert v is not None and v.held, v.text
     assert v.ticks == 8000 and v.late_ticks >= 8

@@ -25,7 +25,7 @@ from tests.unit.faults.harness import (
     xbus_frames,
 )
 
-WAKEUP = bytes.fromhex("FA FF 3E 00 C3")  # research/protocols.md §1 worked frames
+WAKEUP = bytes.fromhex("FA FF 3E 00 C3")  # docs/protocols.md §1 worked frames
 
 
 def bench(rig: Rig, raw: list[dict[str, Any]], **kw: Any) -> Bench:

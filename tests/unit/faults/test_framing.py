@@ -1,9 +1,10 @@
 """Frame boundaries and checksum corruption per protocol (hil/faults/framing.py).
 
-Golden frames: Xbus from research/protocols.md §1 "Worked frames" (ReqDID identical to the
+Golden frames: Xbus from docs/protocols.md §1 "Worked frames" (ReqDID identical to the
 MT0100P example, ReqBaudrate to the MT0605P example) and the MTi-300 capture in
-research/golden/xsens-mti300-captures.md (Scottapotamas/xsens-mti, MT Manager); XBee API
-from research/protocols.md §8.2 (TX status and the AP=2 escaping example match Digi's
+Scottapotamas/xsens-mti docs/mtmanager_packets.md (MT Manager,
+https://github.com/Scottapotamas/xsens-mti); XBee API
+from docs/protocols.md §8.2 (TX status and the AP=2 escaping example match Digi's
 printed examples in the XBee 802.15.4 manual).
 """
 

@@ -15,7 +15,7 @@ from hil.faults import load_faults
 from hil.config.rig import Rig
 from tests.unit.faults.harness import Bench, adc_enter_spi, adc_read, xbus_frames
 
-GOTO_CONFIG = bytes.fromhex("FA FF 30 00 D1")  # research/protocols.md §1 worked frames
+GOTO_CONFIG = bytes.fromhex("FA FF 30 00 D1")  # docs/protocols.md §1 worked frames
 GOTO_CONFIG_ACK = bytes.fromhex("FA FF 31 00 D0")
 
 

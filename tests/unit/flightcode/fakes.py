@@ -1,6 +1,6 @@
 """In-process fakes for the flight-code tests: pyserial-like ports driven by scripted devices.
 
-Written from the wire documentation (research/protocols.md, docs/rc-capture-format.md), not
+Written from the wire documentation (docs/protocols.md, docs/rc-capture-format.md), not
 from the flight code's own encoders, so a test that passes means the two agree.
 
 :class:`FakeSerial` implements the calls the drivers make (``read``, ``write``,
@@ -100,7 +100,7 @@ class FakeSerial:
 
 # -- XSENS -------------------------------------------------------------------------------------
 def xbus(mid: int, payload: bytes = b"") -> bytes:
-    """Xbus frame (protocols.md 1.2): FA FF MID LEN DATA CS, bytes after FA sum to 0."""
+    """Xbus frame (docs/protocols.md 1.2): FA FF MID LEN DATA CS, bytes after FA sum to 0."""
     body = bytes((0xFF, mid, len(payload))) + payload
     return b"\xfa" + body + bytes(((-sum(body)) & 0xFF,))
 
@@ -178,7 +178,7 @@ class FakeXsens:
 
 # -- Bus Pirate + MCP3204 ------------------------------------------------------------------------
 class FakeBusPirate:
-    """Bus Pirate v3 binary mode (protocols.md 7.1) with an MCP3204 on its SPI bus."""
+    """Bus Pirate v3 binary mode (docs/protocols.md 7.1) with an MCP3204 on its SPI bus."""
 
     def __init__(self, port: FakeSerial, codes: Callable[[int], int]) -> None:
         self.port = port
@@ -356,7 +356,7 @@ class FakeMaestro:
 
 
 def xbee_frames(stream: bytes, escaped: bool) -> list[bytes]:
-    """API frame data from a byte stream (protocols.md 8.2), checking every checksum.
+    """API frame data from a byte stream (docs/protocols.md 8.2), checking every checksum.
 
     AP=2: unescape after each 0x7E (a 0x7E inside is always escaped); AP=1: walk the stream
     by the length fields (a 0x7E may appear inside a frame).

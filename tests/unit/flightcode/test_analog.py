@@ -35,16 +35,16 @@ def accel_code(a_mps2: float) -> int:
 
 
 def isa_pressure_Pa(h_m: float) -> float:
-    """protocols.md 3: P(h) = 101325 (1 - 2.25577e-5 h)^5.25588."""
+    """docs/protocols.md 3: P(h) = 101325 (1 - 2.25577e-5 h)^5.25588."""
     return 101325.0 * (1.0 - 2.25577e-5 * h_m) ** 5.25588
 
 
 def test_documented_sea_level_code_without_the_gain_stage() -> None:
-    # protocols.md 3 table: 101.325 kPa -> 4.085 V -> code 3346 with no conditioning stage.
+    # docs/protocols.md 3 table: 101.325 kPa -> 4.085 V -> code 3346 with no conditioning stage.
     assert baro_code(101325.0, gain=1.0, offset_V=0.0) == 3346
     chain = AnalogChain(5.0, BaroChainParams(gain=1.0, offset_V=0.0), AccelChainParams())
     p = chain.baro_pressure_Pa(3346)
-    assert p == pytest.approx(101325.0, abs=27.1)  # one LSB = 27.1 Pa (paper.md 3.4)
+    assert p == pytest.approx(101325.0, abs=27.1)  # one LSB = 27.1 Pa (docs/controllers.md 3.4)
 
 
 @settings(max_examples=80, deadline=None)
@@ -62,7 +62,7 @@ def test_rails_are_out_of_range() -> None:
 
 
 def test_isa_altitude_matches_the_documented_table() -> None:
-    # protocols.md 3: 0 m 101.325 kPa, 500 m 95.461, 1000 m 89.875, 2000 m 79.495
+    # docs/protocols.md 3: 0 m 101.325 kPa, 500 m 95.461, 1000 m 89.875, 2000 m 79.495
     for h, p_kPa in ((0, 101.325), (500, 95.461), (1000, 89.875), (2000, 79.495)):
         assert isa_altitude_m(p_kPa * 1000) == pytest.approx(h, abs=1.0)
 
@@ -92,7 +92,7 @@ def test_default_field_sits_at_mid_scale() -> None:
 def test_accel_level_at_rest_and_scaling() -> None:
     chain = AnalogChain(5.0, BaroChainParams(), AccelChainParams(mount_B=("+X", "+Y", "+Z")))
     f = chain.accel_B_mps2(accel_code(0.0), accel_code(0.0), accel_code(-G))
-    assert f == pytest.approx((0.0, 0.0, -G), abs=0.036)  # 3.70 mg = 0.036 m/s^2 per LSB (paper.md 3.4)
+    assert f == pytest.approx((0.0, 0.0, -G), abs=0.036)  # 3.70 mg = 0.036 m/s^2 per LSB (docs/controllers.md 3.4)
     f = chain.accel_B_mps2(accel_code(2 * G), accel_code(-1.5 * G), accel_code(0.0))
     assert f == pytest.approx((2 * G, -1.5 * G, 0.0), abs=0.036)
 

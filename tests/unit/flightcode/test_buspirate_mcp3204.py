@@ -30,7 +30,7 @@ def _bridge(attempts: int = 2) -> tuple[BusPirateSpi, FakeBusPirate, FakeSerial,
 
 
 def test_mcp3204_requests_match_the_datasheet_framing() -> None:
-    # protocols.md 2: single-ended CH0..CH3 = 06 00 00, 06 40 00, 06 80 00, 06 C0 00.
+    # docs/protocols.md 2: single-ended CH0..CH3 = 06 00 00, 06 40 00, 06 80 00, 06 C0 00.
     assert [mcp3204.request(ch).hex(" ") for ch in range(4)] == ["06 00 00", "06 40 00", "06 80 00", "06 c0 00"]
     assert mcp3204.request(1, single_ended=False) == bytes.fromhex("04 40 00")
 
@@ -45,7 +45,7 @@ def test_mcp3204_decode_and_null_bit() -> None:
 def test_pipelined_write_and_reply_layout() -> None:
     frames = [mcp3204.request(ch) for ch in range(4)]
     wire = bp.encode_transfers(frames)
-    # protocols.md 7.1: 02 -> 01; 12 06 40 00 -> 01 ?? (0 B11..B8) (B7..B0); 03 -> 01
+    # docs/protocols.md 7.1: 02 -> 01; 12 06 40 00 -> 01 ?? (0 B11..B8) (B7..B0); 03 -> 01
     assert wire[:6] == bytes.fromhex("02 12 06 00 00 03")
     assert wire == b"".join(b"\x02\x12" + f + b"\x03" for f in frames)
     assert len(wire) == 24 and bp.reply_length(frames) == 24

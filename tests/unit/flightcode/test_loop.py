@@ -270,7 +270,7 @@ def test_accel_from_the_xsens_and_escaped_telemetry() -> None:
 
 
 def test_paper_literal_weights_are_selectable_and_chatter() -> None:
-    # With a 30 ms motor lag the paper's deadbeat weights ride the torque limit (paper.md
+    # With a 30 ms motor lag the paper's deadbeat weights ride the torque limit (docs/controllers.md
     # 2.4) after a small roll step, where the generalised weights stay quiet.
     def roll_step(t: float) -> list[float] | None:
         return pilot(t, roll=1550.0)

@@ -13,7 +13,7 @@ from tests.unit.flightcode.fakes import FakeMaestro, FakeSerial
 
 
 def test_maestro_golden_set_multiple_targets() -> None:
-    # Maestro User's Guide 5.e (protocols.md 6.2): ch3 = 0, ch4 = 6000 -> 9F 02 03 00 00 70 2E
+    # Maestro User's Guide 5.e (docs/protocols.md 6.2): ch3 = 0, ch4 = 6000 -> 9F 02 03 00 00 70 2E
     assert maestro.set_multiple_targets(3, [0, 6000]) == bytes.fromhex("9F 02 03 00 00 70 2E")
     assert maestro.quarter_us(1500.0) == 6000
 
@@ -47,7 +47,7 @@ def test_short_write_is_counted_not_raised() -> None:
 
 
 # -- XBee -------------------------------------------------------------------------------------------
-# protocols.md 8.2 worked frames (escape example and TX status checksum match Digi's printed ones).
+# docs/protocols.md 8.2 worked frames (escape example and TX status checksum match Digi's printed ones).
 GOLDEN_API = [
     ("08 01 41 50", "7E 00 04 08 01 41 50 65"),
     ("88 01 41 50 00 01", "7E 00 06 88 01 41 50 00 01 E4"),

@@ -209,7 +209,7 @@ def test_stale_stream_restarts_the_decoder() -> None:
 
 
 # -- SBUS ----------------------------------------------------------------------------------------
-# protocols.md 5.2: all 16 channels raw 992, no flags.
+# docs/protocols.md 5.2: all 16 channels raw 992, no flags.
 GOLDEN_SBUS = bytes.fromhex("0F E0 03 1F F8 C0 07 3E F0 81 0F 7C E0 03 1F F8 C0 07 3E F0 81 0F 7C 00 00")
 
 

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from flightcode.drivers import mtdata, xbus
 from flightcode.drivers.xbus import Mid, XbusMessage, XbusParser
 
-# protocols.md 1.2 worked frames (ReqDID identical to MT0100P; ReqBaudrate matches MT0605P;
+# docs/protocols.md 1.2 worked frames (ReqDID identical to MT0100P; ReqBaudrate matches MT0605P;
 # SetStringOutputType matches the MT Manager capture).
 GOLDEN_FRAMES = [
     (0x00, b"", "FA FF 00 00 01"),
@@ -30,12 +30,13 @@ GOLDEN_FRAMES = [
     (0x8E, bytes.fromhex("0000"), "FA FF 8E 02 00 00 71"),
     (0x42, b"\x04", "FA FF 42 01 04 BA"),
 ]
-# protocols.md 1.9: MTData2, packet counter 7, identity quaternion, status word 3.
+# docs/protocols.md 1.9: MTData2, packet counter 7, identity quaternion, status word 3.
 GOLDEN_MTDATA2 = bytes.fromhex(
     "FA FF 36 1F 10 20 02 00 07 20 10 10 3F 80 00 00 00 00 00 00 00 00 00 00 00 00 00 00 E0 20 04 00 00 00 03 6D")
-# protocols.md 1.8: legacy MTData, Euler 1.5, -2.25, 90 deg, counter 0x1234 (mode 4, settings 5).
+# docs/protocols.md 1.8: legacy MTData, Euler 1.5, -2.25, 90 deg, counter 0x1234 (mode 4, settings 5).
 GOLDEN_LEGACY = bytes.fromhex("FA FF 32 0E 3F C0 00 00 C0 10 00 00 42 B4 00 00 12 34 B6")
-# research/golden/xsens-mti300-captures.md, packet example 3 (real MTi-300 via MT Manager).
+# Scottapotamas/xsens-mti docs/mtmanager_packets.md, packet example 3 (a real MTi-300 via MT Manager;
+# https://github.com/Scottapotamas/xsens-mti).
 MTI300_EXAMPLE3 = bytes.fromhex(
     "10 20 02 8D 90 10 60 04 00 54 DB F1 20 10 10 3F 7F 89 11 BC 11 1D FA 3B A0 CE F0 BD 73 25 73 40 20 0C BD DC F9"
     " D0 BE 3C 86 19 41 1D 0B 47 40 10 0C B9 8D B0 00 B9 F1 48 00 3C C9 04 30 40 30 0C BC B9 89 2E BB 09 8C 00 3C A7"
@@ -49,7 +50,7 @@ def test_encode_matches_documented_frames(mid: int, payload: bytes, wire: str) -
 
 
 def test_set_output_configuration_of_the_flight_code() -> None:
-    # protocols.md 1.9 example with float32/ENU XDIs; the flight code sets the NED bit (0x4)
+    # docs/protocols.md 1.9 example with float32/ENU XDIs; the flight code sets the NED bit (0x4)
     # on EulerAngles, RateOfTurn and Acceleration: 0x2034, 0x8024, 0x4024.
     payload = mtdata.encode_output_configuration(mtdata.mk4_output_configuration(400))
     assert payload == bytes.fromhex("10 20 FF FF 10 60 FF FF 20 34 01 90 80 24 01 90 40 24 01 90 E0 20 FF FF")
@@ -110,7 +111,7 @@ def test_bad_checksum_is_dropped_and_the_next_frame_found() -> None:
 def test_extended_length_round_trip() -> None:
     payload = bytes(range(256)) * 2  # 512 bytes
     frame = xbus.encode_frame(0x36, payload)
-    assert frame[:6] == bytes.fromhex("FA FF 36 FF 02 00")  # protocols.md 1.2 extended header
+    assert frame[:6] == bytes.fromhex("FA FF 36 FF 02 00")  # docs/protocols.md 1.2 extended header
     assert sum(frame[1:]) & 0xFF == 0
     parser = XbusParser()
     assert parser.feed(frame[:100]) == []

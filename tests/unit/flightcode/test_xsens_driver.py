@@ -196,7 +196,7 @@ def test_unexpected_message_in_measurement_is_counted() -> None:
 
 
 def test_read_asks_for_a_whole_frame_at_once() -> None:
-    # One read per sample when the device delivers frame by frame (limits.md: round trips cost).
+    # One read per sample when the device delivers frame by frame (docs/performance.md: pty round trips cost).
     drv, dev, port = _started()
     port.feed(dev.sample(0, (0, 0, 0), (0, 0, 0), (0, 0, -9.8)))
     reads = port.reads

@@ -22,7 +22,7 @@ from emulators.maestro import (
     set_target,
 )
 
-# Worked examples of research/protocols.md 6.2, verified against Pololu 0J40 5.c/5.e.
+# Worked examples of docs/protocols.md 6.2, verified against Pololu 0J40 5.c/5.e.
 GOLDEN_SET_TARGET_CH0 = bytes.fromhex("84 00 70 2E")  # 0J40 5.c: ch0 1500 us
 GOLDEN_SET_TARGET_CH2 = bytes.fromhex("84 02 70 2E")  # 0J40 5.e: ch2 1500 us
 GOLDEN_POLOLU_CH0 = bytes.fromhex("AA 0C 04 00 70 2E")  # 0J40 5.c Pololu form

@@ -1,4 +1,4 @@
-"""ISA atmosphere against the standard table (protocols.md 3; U.S. Standard Atmosphere 1976)."""
+"""ISA atmosphere against the standard table (docs/protocols.md 3; U.S. Standard Atmosphere 1976)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from hil.plant.atmosphere import Atmosphere, isa_pressure_Pa, isa_temperature_K
 
 from .support import hover_at, make_plant
 
-# Standard-atmosphere table (U.S. Standard Atmosphere 1976; protocols.md section 3 lists
+# Standard-atmosphere table (U.S. Standard Atmosphere 1976; docs/protocols.md section 3 lists
 # 0/1000/2000 m): height m -> pressure Pa.
 ISA_TABLE = [(0.0, 101325.0), (1000.0, 89875.0), (2000.0, 79495.0), (5000.0, 54020.0)]
 
@@ -36,7 +36,7 @@ def test_field_elevation_and_qnh() -> None:
     assert high.pressure_Pa(1000.0) == pytest.approx(79495.0, rel=1e-3)
     low_qnh = Atmosphere(EnvironmentParams(qnh_Pa=100000.0))
     assert low_qnh.pressure_Pa(0.0) == pytest.approx(100000.0)
-    # Near sea level dP/dh = -rho g = -12.0 Pa/m (protocols.md 3).
+    # Near sea level dP/dh = -rho g = -12.0 Pa/m (docs/protocols.md 3).
     assert low_qnh.pressure_Pa(1.0) - low_qnh.pressure_Pa(0.0) == pytest.approx(-11.8, abs=0.2)
 
 

@@ -22,7 +22,7 @@ def test_hover_throttle_holds_altitude() -> None:
     hover_at(plant, 10.0)
     a_N, alpha = plant.accelerations()
     assert max(abs(a) for a in a_N + alpha) < 1e-9
-    assert plant.hover_throttle() == pytest.approx(0.724, abs=0.002)  # paper.md 3.1, full pack
+    assert plant.hover_throttle() == pytest.approx(0.724, abs=0.002)  # docs/controllers.md 3.1, full pack
     run(plant, 2000, lambda p: [p.hover_throttle()] * 4)  # 5 s
     s = plant.state
     assert s.h_m == pytest.approx(10.0, abs=2e-3)

@@ -17,16 +17,16 @@ ADAPTER = pydantic.TypeAdapter(PlantParams)
 def test_defaults_are_the_papers_vehicle() -> None:
     p = PlantParams()
     assert p.body.mass_kg == 1.1  # Table 1
-    assert p.body.inertia_B_kgm2[0] == 0.0153  # paper.md 2.3
+    assert p.body.inertia_B_kgm2[0] == 0.0153  # docs/controllers.md 2.3
     assert p.rotors.layout is FrameLayout.X
     assert 2 * p.rotors.arm_length_m == 0.5  # 500 mm motor to motor
     assert p.rotors.omega_max_radps * 60 / (2 * math.pi) == pytest.approx(8000.0)
     assert 4 * p.rotors.thrust_max_N == pytest.approx(2.1 * G)  # 20.6 N: 1.1 kg + 1 kg lift
     assert 4 * p.rotors.thrust_max_N == pytest.approx(20.6, abs=0.05)
     assert (p.battery.cells, p.battery.capacity_Ah) == (3, 2.1)
-    assert (p.rotors.tau_up_s, p.rotors.tau_down_s) == (0.0125, 0.025)  # protocols.md 6.1
+    assert (p.rotors.tau_up_s, p.rotors.tau_down_s) == (0.0125, 0.025)  # docs/protocols.md 6.1
     assert (p.tick_ns, p.substeps) == (2_500_000, 4)
-    # F = F_max d^2 => d_h = sqrt(m g / F_max) = 0.724 at omega_max (paper.md 3.1).
+    # F = F_max d^2 => d_h = sqrt(m g / F_max) = 0.724 at omega_max (docs/controllers.md 3.1).
     assert math.sqrt(1.1 * G / (4 * p.rotors.thrust_max_N)) == pytest.approx(0.724, abs=5e-4)
 
 

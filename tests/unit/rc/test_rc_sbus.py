@@ -21,7 +21,7 @@ from emulators.rc.script import Loss, Setpoint, StickScript
 
 MS = 1_000_000
 
-# research/protocols.md 5.2: all 16 channels raw 992, no flags (layout of ArduPilot
+# docs/protocols.md 5.2: all 16 channels raw 992, no flags (layout of ArduPilot
 # AP_RCProtocol_SBUS.cpp: 0x0F, 16 x 11 bits LSB first, flags, end 0x00).
 GOLDEN_992 = bytes.fromhex("0F E0 03 1F F8 C0 07 3E F0 81 0F 7C E0 03 1F F8 C0 07 3E F0 81 0F 7C 00 00")
 

@@ -17,7 +17,7 @@ from emulators.xbee.frames import (
     tx_status,
 )
 
-# research/protocols.md 8.2 worked frames (escape example and TX-status checksum match the
+# docs/protocols.md 8.2 worked frames (escape example and TX-status checksum match the
 # examples printed in Digi's 802.15.4 product manual).
 GOLDEN = [
     (at_command(1, "AP"), "7E 00 04 08 01 41 50 65"),

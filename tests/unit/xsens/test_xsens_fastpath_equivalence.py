@@ -7,7 +7,7 @@ rates and accelerations, for any configuration, output frame, alignment, saturat
 motion; a device streaming with either must send the same bytes and events.
 
 Golden payload: the flight code's configuration (flightcode/drivers/mtdata.py,
-protocols.md §1.9) gives ``10 20 02 | 10 60 04 | 20 34 0C | 80 24 0C | 40 24 0C | E0 20 04``
+docs/protocols.md §1.9) gives ``10 20 02 | 10 60 04 | 20 34 0C | 80 24 0C | 40 24 0C | E0 20 04``
 item headers, a 64-byte payload (a 69-byte frame).
 """
 

@@ -1,5 +1,5 @@
 """Altitude loop end to end: LQI + Kalman filter on a nonlinear thrust plant with a quantised,
-dithered barometer and a noisy, biased accelerometer (research/paper.md 3.5, case E)."""
+dithered barometer and a noisy, biased accelerometer (docs/controllers.md 3.5, case E)."""
 
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ def _metrics(r: dict[str, np.ndarray], step_at_s: float = 10.0) -> tuple[float, 
 
 
 def test_5_m_step_with_kf_and_realistic_sensors() -> None:
-    # paper.md 3.5 Monte Carlo (case E, 20 seeds): overshoot 0.32-0.72 m, settle 4.4-5.3 s,
+    # docs/controllers.md 3.5 Monte Carlo (case E, 20 seeds): overshoot 0.32-0.72 m, settle 4.4-5.3 s,
     # hover std 0.07-0.26 m. Seeds 1-6 here: overshoot 0.43-0.58 m, settle 4.65-4.94 s, hover
     # std 0.06-0.12 m.
     for seed in (1, 2):
@@ -72,7 +72,7 @@ def test_5_m_step_with_kf_and_realistic_sensors() -> None:
 
 
 def test_payload_is_absorbed_by_the_integrator_and_the_disturbance_state() -> None:
-    # +300 g with unchanged gains and filter (paper.md 3.5: overshoot 0.42-0.75 m, settle
+    # +300 g with unchanged gains and filter (docs/controllers.md 3.5: overshoot 0.42-0.75 m, settle
     # 4.4-6.7 s); measured here 0.55 m, 4.8 s.
     r = _run(4, m_true_kg=1.4)
     overshoot, settle, _ = _metrics(r)

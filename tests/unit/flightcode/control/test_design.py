@@ -27,7 +27,7 @@ def test_the_paper_lqi_gains_equal_control_lqr() -> None:
     np.testing.assert_allclose(sorted(poles, key=lambda p: (p.real, p.imag)),
                                sorted(poles_ref, key=lambda p: (p.real, p.imag)), rtol=1e-10)
     ctrl = LqiAltitude(model)
-    np.testing.assert_allclose(ctrl.F1, [0.1415, 0.1103, 0.00796], atol=5e-5)  # paper.md 3.2
+    np.testing.assert_allclose(ctrl.F1, [0.1415, 0.1103, 0.00796], atol=5e-5)  # docs/controllers.md 3.2
     assert abs(ctrl.F2 - -0.0908) < 5e-5
 
 

@@ -1,4 +1,4 @@
-"""LQI altitude controller: gains against paper.md 3.2/3.3, the 5 m step, anti-windup."""
+"""LQI altitude controller: gains against docs/controllers.md 3.2/3.3, the 5 m step, anti-windup."""
 
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ def test_lqr_integral_action_cross_check() -> None:
 
 
 def test_dlqr_with_Ts_scaling_agrees_within_half_a_percent() -> None:
-    # paper.md 3.3: dlqr on the ZOH augmented system with (Q T, R T) -> F_d within 0.3 %.
+    # docs/controllers.md 3.3: dlqr on the ZOH augmented system with (Q T, R T) -> F_d within 0.3 %.
     model = AltitudeModel()
     a, b, c = model.state_space()
     d = ct.c2d(ct.ss(a, b, c, 0), T, method="zoh")
@@ -80,7 +80,7 @@ def test_linear_5_m_step_of_the_continuous_design() -> None:
     a_cl = a_aug - b_aug @ lqi.K
     sys = ct.ss(a_cl, np.array([[0.0], [0.0], [0.0], [5.0]]), np.array([[1.0, 0, 0, 0]]), 0)
     info = ct.step_info(sys, T=np.linspace(0, 20, 8001), SettlingTimeThreshold=0.02)
-    # paper.md 3.2: rise 1.70 s, 2 % settling 5.00 s, overshoot 0.41 m (8.2 %).
+    # docs/controllers.md 3.2: rise 1.70 s, 2 % settling 5.00 s, overshoot 0.41 m (8.2 %).
     assert info["Overshoot"] == pytest.approx(8.2, abs=0.2)
     assert info["Peak"] - 5.0 == pytest.approx(0.41, abs=0.01)
     assert info["SettlingTime"] == pytest.approx(5.0, abs=0.1)
@@ -90,7 +90,7 @@ def test_linear_5_m_step_of_the_continuous_design() -> None:
 def _sim_step(lqi: LqiAltitude, model: AltitudeModel, z_ref: float, seconds: float, nonlinear: bool = False) -> dict[str, np.ndarray]:
     """Run update() at 400 Hz on the plant with full-state feedback.
 
-    Linear: the ZOH model of paper.md 3.1. Nonlinear: thrust F_max d^2 with lag T1, gravity.
+    Linear: the ZOH model of docs/controllers.md 3.1. Nonlinear: thrust F_max d^2 with lag T1, gravity.
     """
     n = int(round(seconds / T))
     z = np.empty(n)
@@ -130,16 +130,16 @@ def test_discrete_update_reproduces_the_5_m_step() -> None:
     model = AltitudeModel()
     lqi = LqiAltitude(model)
     r = _sim_step(lqi, model, 5.0, 12.0)
-    # paper.md 3.3: emulating the continuous F at 400 Hz: overshoot 0.412 m, settling 5.00 s.
+    # docs/controllers.md 3.3: emulating the continuous F at 400 Hz: overshoot 0.412 m, settling 5.00 s.
     assert r["z"].max() - 5.0 == pytest.approx(0.41, abs=0.02)
     assert _settling_time(r["z"], 5.0, 0.1) == pytest.approx(5.0, abs=0.15)
     assert np.all((r["throttle"] >= 0.0) & (r["throttle"] <= 1.0))
-    # paper.md 3.2: peak throttle deviation +0.106.
+    # docs/controllers.md 3.2: peak throttle deviation +0.106.
     assert r["throttle"].max() - model.d_h == pytest.approx(0.106, abs=0.01)
 
 
 def test_nonlinear_thrust_step_stays_close() -> None:
-    # paper.md 3.5 case B (full state, nonlinear plant): overshoot 0.44 m, settle +-0.25 m 4.65 s.
+    # docs/controllers.md 3.5 case B (full state, nonlinear plant): overshoot 0.44 m, settle +-0.25 m 4.65 s.
     model = AltitudeModel()
     r = _sim_step(LqiAltitude(model), model, 5.0, 12.0, nonlinear=True)
     assert r["z"].max() - 5.0 == pytest.approx(0.44, abs=0.05)
@@ -225,7 +225,7 @@ def _damped_step(lqi: LqiAltitude, model: AltitudeModel, c_N_per_mps: float) -> 
 def test_rig_weights_give_the_5_s_step_on_a_plant_with_rotor_inflow_damping() -> None:
     """Issue 13: the bench's plant damps vertical motion (rotor inflow drag k_z omega per
     rotor plus body drag, 1.5 N/(m/s)); the paper's model k/((1 + T1 s) m s^2) does not. With
-    the paper.md 3.2 weights the loop slows and overshoots (settling past 6 s; 6-11 s on the
+    the docs/controllers.md 3.2 weights the loop slows and overshoots (settling past 6 s; 6-11 s on the
     bench); the weights the rig flies (rigs/paper-quad.toml [flight.overrides.altitude])
     restore about 5 s and 0.5 m. Damping from the rig's own plant parameters."""
     import tomllib

@@ -1,5 +1,5 @@
 """Memory attitude controller: the paper's identities, the generalised law, anti-windup, and a
-single-axis closed loop with a bench-like actuator (research/paper.md section 2)."""
+single-axis closed loop with a bench-like actuator (docs/controllers.md section 2)."""
 
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ def test_recommended_gains_match_paper_section_2_6() -> None:
     assert g.w2_per_s == pytest.approx(16.644, abs=5e-4)
     p1, p2 = g.poles
     assert p1.real == pytest.approx(0.99501, abs=1e-5) and p2.real == pytest.approx(0.96319, abs=1e-5)
-    # PID equivalent for J = 0.0153 (paper.md 2.6: Kd 0.255, Kp 0.961, Ki 0.901).
+    # PID equivalent for J = 0.0153 (docs/controllers.md 2.6: Kd 0.255, Kp 0.961, Ki 0.901).
     kp, ki, kd = dataclasses.replace(g, J_hat_kgm2=0.0153).pid_equivalent()
     assert kd == pytest.approx(0.255, rel=5e-3)
     assert kp == pytest.approx(0.961, rel=5e-3)
@@ -41,7 +41,7 @@ def test_paper_literal_gains() -> None:
     g = MemoryGains.paper_literal(T)
     assert (g.w1_per_s, g.w2_per_s, g.tau_ff_s, g.use_eta, g.k0_per_s) == (-800.0, 400.0, 0.0, False, 1.0)
     assert g.poles == (0.0, 0.0)
-    # PID view of the deadbeat law (paper.md 2.1): Kd = J/T, Kp = J (k0/T + 1/T^2).
+    # PID view of the deadbeat law (docs/controllers.md 2.1): Kd = J/T, Kp = J (k0/T + 1/T^2).
     kp, ki, kd = dataclasses.replace(g, J_hat_kgm2=0.0153).pid_equivalent()
     assert kd == pytest.approx(0.0153 / T)
     assert kp == pytest.approx(0.0153 * (1.0 / T + 1.0 / T**2))
@@ -90,7 +90,7 @@ def _euler_run(gains: MemoryGains, n: int, seed: int) -> dict[str, np.ndarray]:
 
 
 def test_paper_weights_give_s_next_equals_T_delta_f_with_eta() -> None:
-    # Eq. 3.24 with w1 = -2/T, w2 = 1/T, no lead: s_{k+1} = T (f_k - f_{k-1}) (paper.md 3.21).
+    # Eq. 3.24 with w1 = -2/T, w2 = 1/T, no lead: s_{k+1} = T (f_k - f_{k-1}) (docs/controllers.md 2.1, Eq. 3.21).
     gains = dataclasses.replace(MemoryGains.paper_literal(T), use_eta=True, u_limit_Nm=BIG_Nm)
     r = _euler_run(gains, 400, seed=1)
     s, f = r["s"], r["f"]
@@ -209,7 +209,7 @@ def test_output_never_exceeds_the_limit(seq: list[tuple[float, float, float, boo
             assert u == 0.0
 
 
-# -- single-axis closed loop with a bench-like actuator (paper.md 2.4) ----------------------
+# -- single-axis closed loop with a bench-like actuator (docs/controllers.md 2.4) ----------------------
 
 
 J_TRUE = 0.0153
@@ -260,11 +260,11 @@ def test_recommended_gains_are_quiet_and_stable_in_hover() -> None:
     r = _closed_loop(g, 6.0, _hover)
     err, u = r["err"][int(2 / T) :], r["u"][int(2 / T) :]
     du_rms = float(np.sqrt(np.mean(np.diff(u) ** 2)))
-    # paper.md 2.4 row E4 (rec-robust, hover G1): 1.01 deg RMS / 2.63 max; measured here over
+    # docs/controllers.md 2.4 row E4 (rec-robust, hover G1): 1.01 deg RMS / 2.63 max; measured here over
     # 28 s: 1.04 / 2.68, u RMS 0.038 N m, delta-u RMS 0.0014 N m, never at the limit.
     assert np.max(np.abs(np.degrees(err))) < 3.0
     assert np.mean(np.abs(u) >= g.u_limit_Nm) == 0.0
-    assert du_rms < 0.01  # paper.md 2.4: <= 0.010 N m for rec-robust
+    assert du_rms < 0.01  # docs/controllers.md 2.4: <= 0.010 N m for rec-robust
     assert float(np.sqrt(np.mean(u**2))) < 0.1
 
 
@@ -275,7 +275,7 @@ def test_paper_literal_weights_chatter_at_the_limit() -> None:
     u = r["u"][int(2 / T) :]
     at_limit = float(np.mean(np.abs(u) >= g.u_limit_Nm - 1e-12))
     du_rms = float(np.sqrt(np.mean(np.diff(u) ** 2)))
-    # paper.md 2.4 row E4 (paper law): 88 % at the limit, delta-u RMS 0.24 N m; measured here
+    # docs/controllers.md 2.4 row E4 (paper law): 88 % at the limit, delta-u RMS 0.24 N m; measured here
     # over 28 s: 88 %, 0.24 N m, angle 0.70 deg RMS.
     assert at_limit > 0.7
     assert du_rms > 0.15
@@ -296,7 +296,7 @@ def test_lead_feed_forward_improves_2_hz_tracking() -> None:
     }.items():
         err = _closed_loop(g, 5.0, sine, gust_Nm=0.0)["err"][int(3 / T) :]
         rms[name] = float(np.degrees(np.sqrt(np.mean(err**2))))
-    # paper.md 2.4 (lag 35 ms + 1 delay): 0.37-0.39 deg with the lead, 2.95 without, 7.52 for
+    # docs/controllers.md 2.4 (lag 35 ms + 1 delay): 0.37-0.39 deg with the lead, 2.95 without, 7.52 for
     # Eq. 3.25. Measured here: 0.394, 2.97, 7.68.
     assert 0.2 < rms["lead"] < 0.5
     assert rms["eta_only"] > 5 * rms["lead"]

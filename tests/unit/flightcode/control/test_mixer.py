@@ -191,7 +191,7 @@ def test_throttle_differential_at_hover_is_the_thrust_mixer() -> None:
 
 
 def test_payload_raises_the_torque_gain_with_the_collective() -> None:
-    """+300 g: hover at d = sqrt(1.4 g / 20.6) = 0.817, gain 0.817 / 0.724 = 1.128 (paper.md 2.7)."""
+    """+300 g: hover at d = sqrt(1.4 g / 20.6) = 0.817, gain 0.817 / 0.724 = 1.128 (docs/controllers.md 2.7)."""
     d_payload = math.sqrt(1.4 * 9.80665 / 20.6)
     r = Mixer(differential="throttle", hover_throttle=D_H).mix(d_payload, (0.1, 0.0, 0.0))
     assert r.applied_tau_Nm[0] / 0.1 == pytest.approx(1.128, abs=0.002)

@@ -1,4 +1,4 @@
-"""Altitude Kalman filter (paper.md 3.5): discretisation, steady state vs control.dlqe, tracking
+"""Altitude Kalman filter (docs/controllers.md 3.5): discretisation, steady state vs control.dlqe, tracking
 with a quantised barometer, disturbance and bias convergence, partial updates."""
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ def test_discrete_matrices(model: AltitudeModel) -> None:
     kf = AltitudeKF(model)
     a, b = AltitudeKF.continuous_model(model)
     np.testing.assert_allclose(kf.kf.F, scipy.linalg.expm(a * T), atol=1e-15)
-    # paper.md 3.3 (the [z, z', a] block and B).
+    # docs/controllers.md 3.3 (the [z, z', a] block and B).
     np.testing.assert_allclose(kf.kf.F[:3, :3], [[1, 0.0025, 3.0e-6], [0, 1, 2.461e-3], [0, 0, 0.96923]], atol=1e-5)
     np.testing.assert_allclose(kf.kf.B.ravel()[:3], [8.76e-7, 1.048e-3, 0.8341], rtol=1e-3)
     # Van Loan, independently: expm([[-A, G W G^T], [0, A^T]] T).
@@ -46,7 +46,7 @@ def test_steady_state_covariance_matches_dlqe(model: AltitudeModel) -> None:
     f = kf.kf
     _, p_ss, poles = ct.dlqe(f.F, np.eye(5), f.H, f.Q, f.R)
     assert np.max(np.abs(poles)) < 1.0
-    # paper.md 3.4: steady-state prior std of the altitude 0.050 m.
+    # docs/controllers.md 3.4: steady-state prior std of the altitude 0.050 m.
     assert math.sqrt(p_ss[0, 0]) == pytest.approx(0.050, abs=1e-3)
     # The Riccati solution is a fixed point of filterpy's predict/update...
     f.P = np.array(p_ss)
@@ -66,7 +66,7 @@ def test_steady_state_covariance_matches_dlqe(model: AltitudeModel) -> None:
 def test_tracks_a_trajectory_with_quantised_baro_and_learns_disturbance_and_bias(model: AltitudeModel) -> None:
     """Truth: the linear model with a payload-like disturbance d = -0.6 m/s^2 (the throttle
     counters it), accelerometer bias 0.15 m/s^2, 0.3 m/s^2 vibration noise, and a barometer
-    quantised at 2.26 m per ADC code dithered by 0.5 mV (0.93 m) of noise (paper.md 3.4)."""
+    quantised at 2.26 m per ADC code dithered by 0.5 mV (0.93 m) of noise (docs/controllers.md 3.4)."""
     kf = AltitudeKF(model)
     rng = np.random.default_rng(11)
     f = kf.kf.F.tolist()
@@ -91,7 +91,7 @@ def test_tracks_a_trajectory_with_quantised_baro_and_learns_disturbance_and_bias
         v_err[k] = kf.vz_mps - x[1]
         a_err[k] = kf.az_mps2 - (x[2] + x[3])
     late = slice(int(20.0 / T), None)
-    # paper.md 3.4: 0.054 m RMS with a dithered ADC; measured here 0.039 m (vz 0.021 m/s,
+    # docs/controllers.md 3.4: 0.054 m RMS with a dithered ADC; measured here 0.039 m (vz 0.021 m/s,
     # a + d 0.093 m/s^2; d -0.617, b 0.145 after 60 s).
     assert float(np.sqrt(np.mean(z_err[late] ** 2))) < 0.1
     assert float(np.sqrt(np.mean(v_err[late] ** 2))) < 0.06
