@@ -53,6 +53,16 @@ class CriterionResult:
     bound: str
     passed: bool
     detail: str = ""
+    #: False: the criterion could not be judged (a compute budget on a rig without a calibrated
+    #: ``cpu_scale``); it does not fail the run, and the summary shows "not judged", never "pass"
+    judged: bool = True
+
+    @property
+    def verdict(self) -> str:
+        """"pass", "FAIL" or "not judged"."""
+        if not self.judged:
+            return "not judged"
+        return "pass" if self.passed else "FAIL"
 
 
 class NonFinite(ValueError):
