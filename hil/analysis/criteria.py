@@ -11,6 +11,7 @@ Metrics (all over the criterion's window, sim seconds):
 |---|---|
 | max_abs, rms, mean, min, max, final, p99_abs | of the signal (all columns pooled) |
 | amplitude | (max - min) / 2 |
+| increase | last - first sample of the window (a counter's count within the window, not since boot) |
 | rms_delta | RMS of the sample-to-sample change (control activity; chatter shows here) |
 | std | standard deviation (about the window's mean; an altitude hold's spread) |
 | overshoot | max(signal) - target after ``step_t_s`` (the step's direction is up) |
@@ -137,6 +138,8 @@ def _metric(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> float:
         return float(np.max(flat))
     if m == "final":
         return float(np.mean(flat[-1]))
+    if m == "increase":
+        return float(np.mean(flat[-1]) - np.mean(flat[0]))
     if m == "p99_abs":
         return float(np.percentile(np.abs(flat), 99))
     if m == "amplitude":

@@ -8,7 +8,7 @@ trace (the batch reference: tests compare the two on random traces). What each k
 
 | metric | held |
 |---|---|
-| max_abs, rms, mean, min, max, final, amplitude, std, rms_delta, fraction_saturated, rms_change_pct | running aggregates (hil/analysis/online_stats.py ``Moments``): one row |
+| max_abs, rms, mean, min, max, final, increase, amplitude, std, rms_delta, fraction_saturated, rms_change_pct | running aggregates (hil/analysis/online_stats.py ``Moments``): one row |
 | phase_lag_deg | two least-squares factors, 4x4 each (``SineFit``) |
 | overshoot, settling_time, rise_time | the step's levels as running sums; after the step, running max, the time after the last sample outside the band, the first 10 % and 90 % crossings |
 | p99_abs | every finite |value| in its window, 8 bytes each (a percentile needs them): the one metric whose memory grows with its window |
@@ -32,7 +32,7 @@ from hil.analysis.signal_stream import Source, resolve
 from hil.analysis.trace_stream import Chunk, TraceStream
 
 POOLED = frozenset({"max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std", "rms_delta",
-                    "fraction_saturated"})
+                    "fraction_saturated", "increase"})
 STEP = frozenset({"overshoot", "settling_time", "rise_time"})
 
 
@@ -60,6 +60,9 @@ def pooled_value(metric: str, m: Moments, kept: list[np.ndarray] | None = None) 
     if metric == "final":
         assert m.last is not None
         return float(np.mean(m.last))
+    if metric == "increase":
+        assert m.first is not None and m.last is not None
+        return float(np.mean(m.last)) - float(np.mean(m.first))
     if metric == "p99_abs":
         assert kept is not None
         return float(np.percentile(np.concatenate(kept), 99))

@@ -126,7 +126,7 @@ class Criterion(_Strict):
     metric: Literal[
         "max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std",
         "rms_delta", "overshoot", "settling_time", "fraction_saturated", "rise_time",
-        "phase_lag_deg", "rms_change_pct",
+        "phase_lag_deg", "rms_change_pct", "increase",
     ]
     window_s: tuple[float, float] | None = None
     max: float | None = None

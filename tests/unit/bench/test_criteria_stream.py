@@ -23,7 +23,7 @@ from hil.analysis.trace_stream import TraceStream, TraceTee
 
 TICK_NS = 25_000_000  # coarse ticks: a few hundred cover seconds of windows and steps
 METRICS = ["max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std", "rms_delta",
-           "overshoot", "settling_time", "fraction_saturated", "rise_time", "phase_lag_deg", "rms_change_pct"]
+           "overshoot", "settling_time", "fraction_saturated", "rise_time", "phase_lag_deg", "rms_change_pct", "increase"]
 SIGNALS = ["truth.a", "truth.b", "esc.p", "esc.p[1]", "tm.x", "truth.a - tm.x", "tm.x - truth.b",
            "truth.a - truth.b", "truth.a - esc.p[2]", "tm.missing", "truth.nope"]
 #: one-column signals (a phase fit of a 3-column field is an error in both, differently)
