@@ -17,6 +17,13 @@ that names the port and the step:
 Sensor time: ``t_ns`` of each sample is the unwrapped SampleTimeFine (10 kHz, u32) since
 the first sample; a legacy device has no SampleTimeFine, so its u16 sample counter times the
 configured period is used. Gaps in the packet counter are counted (``gap_samples``).
+
+A sample whose SampleTimeFine step disagrees with its packet-counter step by more than
+``MAX_TIME_SLIP_PERIODS`` sample periods is rejected (``rejected_time_jumps``): a frame
+corrupted on the wire whose checksum still matches would otherwise move the loop's clock by
+hours (a u32 of 10 kHz ticks wraps at 119 h) and fire every timer. After
+``REBASE_AFTER_REJECTS`` rejections in a row the device's clock is believed again as it
+reads (a packet counter that jumped or stalled on the device: ``time_rebases``).
 """
 
 from __future__ import annotations
@@ -34,6 +41,10 @@ from flightcode.drivers.xbus import Mid, XbusMessage
 from flightcode.log import Logger
 
 _DEG = math.pi / 180.0
+#: SampleTimeFine may differ from packet counter x period by at most this many periods
+MAX_TIME_SLIP_PERIODS = 4
+#: consecutive time-jump rejections after which the device's clock is believed again
+REBASE_AFTER_REJECTS = 3
 #: Xbus error codes worth a name in messages (protocols.md 1.6).
 _ERROR_NAMES = {0x03: "period invalid", 0x04: "message invalid or not implemented", 0x20: "baud rate out of range",
                 0x21: "invalid parameter", 0x35: "output configuration error"}
@@ -115,6 +126,7 @@ class XsensDriver:
         self._clock_ticks = 0  # unwrapped ticks since the first sample
         self._last_raw = 0
         self._last_counter: int | None = None
+        self._rejects_in_row = 0
 
     # -- boot ----------------------------------------------------------------------------
     def _read_messages(self) -> list[XbusMessage]:
@@ -206,21 +218,31 @@ class XsensDriver:
         self.counters["unexpected_messages"] += 1
         return None
 
-    def _to_sample(self, data: XsensData, skipped: int) -> ImuSample:
+    def _to_sample(self, data: XsensData, skipped: int) -> ImuSample | None:
+        """The sample on the loop's clock, or None when its time jumps (rejected)."""
         if self._legacy:
             raw, modulus, tick_ns = data.counter, 0x10000, self._period_ns
         else:
             raw, modulus, tick_ns = data.sample_time_fine or 0, 0x1_0000_0000, 1_000_000_000 // mtdata.SAMPLE_TIME_FINE_HZ
+        step = None if self._last_counter is None else (data.counter - self._last_counter) & 0xFFFF
         if self._time_base is None:
             self._time_base = raw
         else:
-            self._clock_ticks += (raw - self._last_raw) % modulus
+            ticks = (raw - self._last_raw) % modulus
+            if not self._legacy and step is not None:
+                period_ticks = mtdata.SAMPLE_TIME_FINE_HZ // self.params.rate_hz
+                if abs(ticks - step * period_ticks) > MAX_TIME_SLIP_PERIODS * period_ticks:
+                    self._rejects_in_row += 1
+                    if self._rejects_in_row < REBASE_AFTER_REJECTS:
+                        self.counters["rejected_time_jumps"] += 1
+                        return None
+                    self.counters["time_rebases"] += 1  # the device's clock, as it says
+            self._clock_ticks += ticks
+        self._rejects_in_row = 0
         self._last_raw = raw
-        if self._last_counter is not None:
-            step = (data.counter - self._last_counter) & 0xFFFF
-            if step != 1:
-                self.counters["gap_samples"] += (step - 1) if step else 0
-                self.counters["gaps" if step else "duplicates"] += 1
+        if step is not None and step != 1:
+            self.counters["gap_samples"] += (step - 1) if step else 0
+            self.counters["gaps" if step else "duplicates"] += 1
         self._last_counter = data.counter
         roll, pitch, yaw = data.euler_deg
         return ImuSample(self._clock_ticks * tick_ns, data.counter, (roll * _DEG, pitch * _DEG, yaw * _DEG),
@@ -230,8 +252,23 @@ class XsensDriver:
         """Block until the next sample (the newest one if several are queued).
 
         Returns None when no complete sample arrived within ``timeout_s`` (the IMU-loss
-        watchdog; the port's own read timeout should be the same value).
+        watchdog; the port's own read timeout should be the same value). A sample rejected
+        for its time (see the module's docstring) is dropped and the next one awaited.
         """
+        deadline = time.monotonic() + timeout_s
+        while True:
+            got = self._read_newest(deadline, timeout_s)
+            if got is None:
+                return None
+            newest, skipped = got
+            if skipped:
+                self.counters["skipped_samples"] += skipped
+            sample = self._to_sample(newest, skipped)
+            if sample is not None:
+                return sample
+
+    def _read_newest(self, deadline: float, timeout_s: float) -> tuple[XsensData, int] | None:
+        """The newest decoded sample and how many older ones it replaced; None at the deadline."""
         newest: XsensData | None = None
         skipped = 0
         while self._pending:
@@ -239,7 +276,6 @@ class XsensDriver:
             if data is not None:
                 skipped += newest is not None
                 newest = data
-        deadline = time.monotonic() + timeout_s
         port, parser = self.port, self.parser
         while True:
             if newest is None:
@@ -262,6 +298,4 @@ class XsensDriver:
                 # (bytes, never a valid sample) still trips the watchdog by the hard limit.
                 if now >= deadline and (now >= deadline + timeout_s or not port.in_waiting):
                     return None
-        if skipped:
-            self.counters["skipped_samples"] += skipped
-        return self._to_sample(newest, skipped)
+        return newest, skipped

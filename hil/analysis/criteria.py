@@ -11,6 +11,7 @@ Metrics (all over the criterion's window, sim seconds):
 |---|---|
 | max_abs, rms, mean, min, max, final, p99_abs | of the signal (all columns pooled) |
 | amplitude | (max - min) / 2 |
+| increase | last - first sample of the window (a counter's count within the window, not since boot) |
 | rms_delta | RMS of the sample-to-sample change (control activity; chatter shows here) |
 | std | standard deviation (about the window's mean; an altitude hold's spread) |
 | overshoot | max(signal) - target after ``step_t_s`` (the step's direction is up) |
@@ -20,11 +21,16 @@ Metrics (all over the criterion's window, sim seconds):
 | phase_lag_deg | phase of ``reference`` minus phase of ``signal`` at ``freq_hz`` (least-squares sine fit over the window, each at its own sample instants; positive = the signal lags) |
 | rms_change_pct | 100 (RMS over ``window_s`` / RMS over ``baseline_window_s`` - 1) |
 
-Step metrics take their target either absolute (``target``, ``start``) or relative to the
-level before the step (``step_size``: target = mean over ``pre_step_s`` before ``step_t_s``
-+ step_size, start = that mean) or relative to the level reached (``final_window_s``:
-target = the mean over that window, start = the pre-step mean); ``band_fraction`` sets the
-settling band as a fraction of the step's size.
+Step metrics judge the commanded step: their target is either absolute (``target``,
+``start``) or relative to the level before the step (``step_size``: target = mean over
+``pre_step_s`` before ``step_t_s`` + step_size, start = that mean), never the level the
+signal reached (a step of the wrong size would define its own target). ``band_fraction``
+sets the settling band as a fraction of the commanded step; ``overshoot`` is negative when
+the signal never reaches the target, and needs ``min`` as well as ``max``.
+
+Non-finite samples (NaN, inf) in a criterion's window fail it, unless the criterion states
+the share it tolerates (``nonfinite_fraction_max``); the tolerated ones are left out of the
+metric. A whole row counts as non-finite when any of its columns is.
 """
 
 from __future__ import annotations
@@ -48,6 +54,33 @@ class CriterionResult:
     bound: str
     passed: bool
     detail: str = ""
+    #: False: the criterion could not be judged (a compute budget on a rig without a calibrated
+    #: ``cpu_scale``); it does not fail the run, and the summary shows "not judged", never "pass"
+    judged: bool = True
+
+    @property
+    def verdict(self) -> str:
+        """"pass", "FAIL" or "not judged"."""
+        if not self.judged:
+            return "not judged"
+        return "pass" if self.passed else "FAIL"
+
+
+class NonFinite(ValueError):
+    """More non-finite samples in a criterion's window than it tolerates."""
+
+
+def check_finite(c: Criterion, samples: int, finite: int) -> None:
+    """Raise :class:`NonFinite` when more of ``samples`` rows are non-finite than ``c`` tolerates."""
+    bad = samples - finite
+    if bad > 0 and bad > c.nonfinite_fraction_max * samples:
+        raise NonFinite(f"{bad} of {samples} samples non-finite (tolerates a share of {c.nonfinite_fraction_max:g})")
+
+
+def _finite_count(v: np.ndarray) -> int:
+    if v.ndim == 1:
+        return int(np.count_nonzero(np.isfinite(v)))
+    return int(np.count_nonzero(np.all(np.isfinite(v), axis=1)))
 
 
 def _window(t_s: np.ndarray, values: np.ndarray, window: tuple[float, float] | None) -> tuple[np.ndarray, np.ndarray]:
@@ -76,11 +109,6 @@ def _step_levels(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> tuple[float, f
     """(start, target) of a step criterion (absolute or relative to the pre-step level)."""
     assert c.step_t_s is not None
     before = (t_s >= c.step_t_s - c.pre_step_s) & (t_s < c.step_t_s)
-    if c.final_window_s is not None:
-        final = (t_s >= c.final_window_s[0]) & (t_s <= c.final_window_s[1])
-        if not np.any(before) or not np.any(final):
-            return math.nan, math.nan
-        return _mean(v[before]), _mean(v[final])
     if c.step_size is None:
         if c.target is None:
             raise ValueError(f"criterion {c.name!r}: metric {c.metric} needs target or step_size")
@@ -110,6 +138,8 @@ def _metric(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> float:
         return float(np.max(flat))
     if m == "final":
         return float(np.mean(flat[-1]))
+    if m == "increase":
+        return float(np.mean(flat[-1]) - np.mean(flat[0]))
     if m == "p99_abs":
         return float(np.percentile(np.abs(flat), 99))
     if m == "amplitude":
@@ -130,6 +160,8 @@ def _metric(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> float:
     if c.step_t_s is None:
         raise ValueError(f"criterion {c.name!r}: metric {m} needs step_t_s")
     v1 = v if v.ndim == 1 else v.mean(axis=1)
+    ok = np.isfinite(v1)  # the tolerated non-finite samples are left out
+    t_s, v1 = t_s[ok], v1[ok]
     start0, target = _step_levels(c, t_s, v1)
     if not math.isfinite(target):
         return math.nan
@@ -174,6 +206,7 @@ def _phase_lag_deg(c: Criterion, trace: Trace, t_s: np.ndarray, values: np.ndarr
     t_a, a = _window(t_s, values, c.window_s)
     t_b, b = _window(t_r, ref, c.window_s)
     ok_a, ok_b = np.isfinite(a), np.isfinite(b)
+    check_finite(c, a.size + b.size, int(np.count_nonzero(ok_a)) + int(np.count_nonzero(ok_b)))
     if np.count_nonzero(ok_a) < 8 or np.count_nonzero(ok_b) < 8:
         return math.nan
     lag = _sine_phase_rad(t_b[ok_b], b[ok_b], c.freq_hz) - _sine_phase_rad(t_a[ok_a], a[ok_a], c.freq_hz)
@@ -204,8 +237,8 @@ def failed(c: Criterion, exc: Exception) -> CriterionResult:
 
 
 def evaluate(criteria: list[Criterion], trace: Trace) -> list[CriterionResult]:
-    """Evaluate every criterion on the whole-run trace; an unknown signal or a NaN value fails
-    (with a reason). The reference for the streaming criteria (hil/analysis/criteria_stream.py)."""
+    """Evaluate every criterion on the whole-run trace; an unknown signal, a NaN value or
+    non-finite samples beyond the criterion's tolerance fail (with a reason). The reference for the streaming criteria (hil/analysis/criteria_stream.py)."""
     results: list[CriterionResult] = []
     for c in criteria:
         try:
@@ -216,11 +249,13 @@ def evaluate(criteria: list[Criterion], trace: Trace) -> list[CriterionResult]:
                 assert c.baseline_window_s is not None
                 _, after = _window(t_s, values, c.window_s)
                 _, before = _window(t_s, values, c.baseline_window_s)
+                check_finite(c, after.shape[0] + before.shape[0], _finite_count(after) + _finite_count(before))
                 rms_after = _metric(c.model_copy(update={"metric": "rms"}), t_s, after)
                 rms_before = _metric(c.model_copy(update={"metric": "rms"}), t_s, before)
                 value = 100.0 * (rms_after / rms_before - 1.0) if rms_before > 0.0 else math.nan
             else:
                 t_w, v_w = _window(t_s, values, c.window_s)
+                check_finite(c, v_w.shape[0], _finite_count(v_w))
                 value = _metric(c, t_w, v_w)
         except (KeyError, ValueError) as exc:
             results.append(failed(c, exc))

@@ -8,15 +8,13 @@ trace (the batch reference: tests compare the two on random traces). What each k
 
 | metric | held |
 |---|---|
-| max_abs, rms, mean, min, max, final, amplitude, std, rms_delta, fraction_saturated, rms_change_pct | running aggregates (hil/analysis/online_stats.py ``Moments``): one row |
+| max_abs, rms, mean, min, max, final, increase, amplitude, std, rms_delta, fraction_saturated, rms_change_pct | running aggregates (hil/analysis/online_stats.py ``Moments``): one row |
 | phase_lag_deg | two least-squares factors, 4x4 each (``SineFit``) |
 | overshoot, settling_time, rise_time | the step's levels as running sums; after the step, running max, the time after the last sample outside the band, the first 10 % and 90 % crossings |
 | p99_abs | every finite |value| in its window, 8 bytes each (a percentile needs them): the one metric whose memory grows with its window |
 
-A step criterion whose target is the level reached (``final_window_s``) cannot place its band
-before that window is over: its samples after ``step_t_s`` wait in a buffer until then (at
-most ``final_window_s[1] - step_t_s`` of the signal: 16 bytes a sample), then are replayed
-and dropped.
+Each evaluator counts the samples of its window and the finite ones: more non-finite samples
+than the criterion tolerates fail it (``check_finite``, as the batch does).
 """
 
 from __future__ import annotations
@@ -27,14 +25,14 @@ from functools import partial
 
 import numpy as np
 
-from hil.analysis.criteria import CriterionResult, failed, result_of
+from hil.analysis.criteria import CriterionResult, check_finite, failed, result_of
 from hil.analysis.online_stats import ExactSum, Moments, SineFit, finite_rows
 from hil.config.scenario import Criterion
 from hil.analysis.signal_stream import Source, resolve
 from hil.analysis.trace_stream import Chunk, TraceStream
 
 POOLED = frozenset({"max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std", "rms_delta",
-                    "fraction_saturated"})
+                    "fraction_saturated", "increase"})
 STEP = frozenset({"overshoot", "settling_time", "rise_time"})
 
 
@@ -62,6 +60,9 @@ def pooled_value(metric: str, m: Moments, kept: list[np.ndarray] | None = None) 
     if metric == "final":
         assert m.last is not None
         return float(np.mean(m.last))
+    if metric == "increase":
+        assert m.first is not None and m.last is not None
+        return float(np.mean(m.last)) - float(np.mean(m.first))
     if metric == "p99_abs":
         assert kept is not None
         return float(np.percentile(np.concatenate(kept), 99))
@@ -103,6 +104,7 @@ class _Pooled(_Evaluator):
             self.kept.append(np.abs(flat).ravel())
 
     def value(self) -> float:
+        check_finite(self.c, self.m.samples, self.m.rows)
         return pooled_value(self.c.metric, self.m, self.kept)
 
 
@@ -118,6 +120,7 @@ class _RmsChange(_Evaluator):
         self.before.add(_window(t_s, v, self.c.baseline_window_s)[1])
 
     def value(self) -> float:
+        check_finite(self.c, self.after.samples + self.before.samples, self.after.rows + self.before.rows)
         rms_after, rms_before = pooled_value("rms", self.after), pooled_value("rms", self.before)
         return 100.0 * (rms_after / rms_before - 1.0) if rms_before > 0.0 else math.nan
 
@@ -133,6 +136,7 @@ class _PhaseLag(_Evaluator):
         self.sig = resolve(fields, c.signal, samples=True)
         self.sources = [resolve(fields, c.signal), self.ref, self.sig]
         self.fit_ref, self.fit_sig = SineFit(c.freq_hz), SineFit(c.freq_hz)
+        self.samples = 0  # both signals' samples in the window, finite or not
 
     def feed(self, chunk: Chunk) -> None:
         for source, fit in ((self.ref, self.fit_ref), (self.sig, self.fit_sig)):
@@ -140,9 +144,11 @@ class _PhaseLag(_Evaluator):
             if v.ndim != 1:
                 raise ValueError(f"criterion {self.c.name!r}: phase_lag_deg needs one-column signals")
             ok = np.isfinite(v)
+            self.samples += v.size
             fit.add(t_s[ok], v[ok])
 
     def value(self) -> float:
+        check_finite(self.c, self.samples, self.fit_ref.n + self.fit_sig.n)
         if self.fit_ref.n < 8 or self.fit_sig.n < 8:
             return math.nan
         lag = self.fit_ref.phase_rad() - self.fit_sig.phase_rad()
@@ -157,13 +163,11 @@ class _Step(_Evaluator):
         self.samples = 0  # rows in the window
         self.finite = 0  # of which every column is finite
         self.pre = ExactSum()  # over [step_t - pre_step_s, step_t)
-        self.fin = ExactSum()  # over final_window_s
         self.levels: tuple[float, float] | None = None  # (start, target) once known
         self.waiting: list[tuple[np.ndarray, np.ndarray]] = []  # after the step, levels unknown
         self.config_error = ""  # raised by value() where the batch raises it
         self.n_after = 0
         self.vmax = -math.inf
-        self.vmax_nan = False  # a NaN after the step: np.max over them is NaN
         self.band = math.nan
         self.outside = False  # the last sample so far was outside the band
         self.t_settled: float | None = None  # the time after the last sample outside the band
@@ -180,11 +184,10 @@ class _Step(_Evaluator):
         if c.step_t_s is None:
             return
         v1 = v if v.ndim == 1 else v.mean(axis=1)
+        ok = np.isfinite(v1)  # the tolerated non-finite samples are left out
+        t_s, v1 = t_s[ok], v1[ok]
         before = (t_s >= c.step_t_s - c.pre_step_s) & (t_s < c.step_t_s)
         self.pre.add(v1[before])
-        if c.final_window_s is not None:
-            final = (t_s >= c.final_window_s[0]) & (t_s <= c.final_window_s[1])
-            self.fin.add(v1[final])
         after = t_s >= c.step_t_s
         if np.any(after):
             if self.levels is None:
@@ -201,16 +204,11 @@ class _Step(_Evaluator):
             return False
         assert c.step_t_s is not None
         last = float(t_raw[-1])
-        return last >= c.step_t_s and (c.final_window_s is None or last > c.final_window_s[1])
+        return last >= c.step_t_s
 
     def _set_levels(self) -> None:
         c = self.c
-        if c.final_window_s is not None:
-            if not self.pre.count or not self.fin.count:
-                self.levels = (math.nan, math.nan)
-            else:
-                self.levels = (self.pre.mean(), self.fin.mean())
-        elif c.step_size is None:
+        if c.step_size is None:
             if c.target is None:
                 self.config_error = f"criterion {c.name!r}: metric {c.metric} needs target or step_size"
                 self.levels = (math.nan, math.nan)
@@ -239,11 +237,7 @@ class _Step(_Evaluator):
         if self.n_after == 0 and not math.isfinite(self.start):
             self.start = float(vs[0])
         self.n_after += vs.size
-        block_max = float(np.max(vs))
-        if math.isnan(block_max):
-            self.vmax_nan = True
-        else:
-            self.vmax = max(self.vmax, block_max)
+        self.vmax = max(self.vmax, float(np.max(vs)))
         if math.isfinite(self.band):
             out = np.nonzero(np.abs(vs - target) > self.band)[0]
             if self.outside:
@@ -263,6 +257,7 @@ class _Step(_Evaluator):
 
     def value(self) -> float:
         c = self.c
+        check_finite(c, self.samples, self.finite)
         if self.samples == 0 or self.finite == 0:
             return math.nan
         if c.step_t_s is None:
@@ -275,7 +270,7 @@ class _Step(_Evaluator):
         if not math.isfinite(self.levels[1]) or self.n_after == 0:
             return math.nan
         if c.metric == "overshoot":
-            return math.nan if self.vmax_nan else self.vmax - self.levels[1]
+            return self.vmax - self.levels[1]
         if c.metric == "settling_time":
             if not math.isfinite(self.band):
                 raise ValueError(f"criterion {c.name!r}: band_fraction needs start or step_size")

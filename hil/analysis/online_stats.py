@@ -2,7 +2,7 @@
 array: the memory of the streaming criteria (hil/analysis/criteria_stream.py).
 
 * :class:`Moments`: count, sum, sum of squares, min, max, max |x|, mean and M2 (Chan's
-  pairwise update of Welford's), the last finite row and the sum of squared row-to-row
+  pairwise update of Welford's), the first and last finite rows and the sum of squared row-to-row
   changes, rows at or beyond saturation limits. O(1) memory (one row).
 * :class:`SineFit`: least-squares fit of ``s sin(wt) + c cos(wt) + offset`` kept as the 4x4
   triangular factor of the design matrix augmented with the data (QR updated per block):
@@ -108,7 +108,7 @@ class Moments:
     """
 
     __slots__ = ("lo", "hi", "samples", "rows", "n", "total", "total_sq", "mean", "m2", "min", "max",
-                 "max_abs", "last", "delta_sq", "delta_n", "saturated")
+                 "max_abs", "first", "last", "delta_sq", "delta_n", "saturated")
 
     def __init__(self, lo: float = -math.inf, hi: float = math.inf) -> None:
         self.lo, self.hi = lo, hi
@@ -122,6 +122,7 @@ class Moments:
         self.min = math.inf
         self.max = -math.inf
         self.max_abs = -math.inf
+        self.first: np.ndarray | None = None  #: the first finite row, shape (1,) or (1, columns)
         self.last: np.ndarray | None = None  #: the last finite row, shape (1,) or (1, columns)
         self.delta_sq = 0.0  #: sum of squared changes between consecutive finite rows
         self.delta_n = 0
@@ -150,6 +151,8 @@ class Moments:
         d = np.diff(flat if self.last is None else np.concatenate([self.last, flat]), axis=0)
         self.delta_sq += float(np.sum(np.square(d)))
         self.delta_n += d.size
+        if self.first is None:
+            self.first = flat[:1].copy()
         self.last = flat[-1:].copy()
         sat = (flat <= self.lo) | (flat >= self.hi)
         self.saturated += int(np.count_nonzero(np.any(sat, axis=1) if sat.ndim == 2 else sat))

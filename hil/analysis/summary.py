@@ -52,7 +52,8 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
         for c in result.criteria:
             table.add_row(
                 c.name, c.signal, c.metric, _fmt(c.value), c.bound,
-                ("[green]pass[/]" if c.passed else "[red]FAIL[/]") + (f" ({c.detail})" if c.detail else ""),
+                {"pass": "[green]pass[/]", "FAIL": "[red]FAIL[/]", "not judged": "[yellow]not judged[/]"}[c.verdict]
+                + (f" ({c.detail})" if c.detail else ""),
             )
         console.print(table)
     t = result.timing

@@ -85,6 +85,9 @@ class FlightSection:
     #: the target processor's CPU time per host CPU second: compute figures in lockstep are the
     #: flight code's CPU time on this host times this (docs/time.md: how to calibrate it)
     cpu_scale: Annotated[float, Field(gt=0.0)] = 1.0
+    #: where ``cpu_scale`` came from (target, method, date). Empty: not calibrated, and compute
+    #: budgets are reported but not judged (this host's CPU time says nothing of the target's)
+    cpu_scale_source: str = ""
     #: lockstep: run the flight code on sim time through the clock shim (docs/time.md)
     virtual_time: bool = True
     #: lockstep: refuse to fly on the host clock when virtual time cannot be had (the clock

@@ -126,7 +126,7 @@ class Criterion(_Strict):
     metric: Literal[
         "max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std",
         "rms_delta", "overshoot", "settling_time", "fraction_saturated", "rise_time",
-        "phase_lag_deg", "rms_change_pct",
+        "phase_lag_deg", "rms_change_pct", "increase",
     ]
     window_s: tuple[float, float] | None = None
     max: float | None = None
@@ -144,15 +144,15 @@ class Criterion(_Strict):
     #: band as a fraction of the step size (0.05 = +-5 %)
     step_size: float | None = None
     pre_step_s: float = Field(default=1.0, gt=0)
-    #: step metrics against the level the signal settled at instead: target = its mean over
-    #: this window (classical overshoot and settling, relative to the final value)
-    final_window_s: tuple[float, float] | None = None
     band_fraction: float | None = Field(default=None, gt=0)
     #: phase_lag_deg: lag of ``signal`` behind ``reference`` at ``freq_hz`` (positive = late)
     reference: str | None = None
     freq_hz: float | None = Field(default=None, gt=0)
     #: rms_change_pct: 100 (RMS over window_s / RMS over baseline_window_s - 1)
     baseline_window_s: tuple[float, float] | None = None
+    #: share of the window's samples that may be non-finite (NaN, inf) before the criterion
+    #: fails; 0: any non-finite sample fails it
+    nonfinite_fraction_max: float = Field(default=0.0, ge=0.0, le=1.0)
 
     @model_validator(mode="after")
     def _has_bound(self) -> Criterion:
@@ -162,8 +162,10 @@ class Criterion(_Strict):
             raise ValueError("phase_lag_deg needs reference and freq_hz")
         if self.metric == "rms_change_pct" and (self.baseline_window_s is None or self.window_s is None):
             raise ValueError("rms_change_pct needs window_s and baseline_window_s")
-        if sum(x is not None for x in (self.step_size, self.target, self.final_window_s)) > 1:
-            raise ValueError("give one of target, step_size or final_window_s")
+        if self.step_size is not None and self.target is not None:
+            raise ValueError("give one of target or step_size")
+        if self.metric == "overshoot" and (self.min is None or self.max is None):
+            raise ValueError("overshoot needs min and max (an undershoot, a step short of its size, must fail too)")
         return self
 
 

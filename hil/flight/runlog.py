@@ -88,6 +88,10 @@ class RunLogger:
             },
         )
         trace.define("esc", {"cmd_us": 4, "throttle": 4, "armed": 4})
+        #: bench-side counters at each tick: ADC conversions the emulated ADC served since boot
+        #: (a driver that stopped reading, or never gets past the bridge, serves none)
+        trace.define("dev", {"adc_conversions": 1})
+        self.adc_conversions = 0
         devices.event_sinks.append(self.on_event)
         if recorder is not None:
             for port in ports.values():
@@ -141,6 +145,8 @@ class RunLogger:
             if self.out is not None:
                 self.out.log("/hil/esc/command", ev.t_ns, {"t_ns": ev.t_ns, "targets_us": cmd}, clock.monotonic_ns())
             return
+        if isinstance(ev, Mcp3204Conversion):
+            self.adc_conversions += 1
         rec = self.out
         if rec is None or isinstance(ev, _WIRE_ONLY_EVENTS):
             return
@@ -207,6 +213,7 @@ class RunLogger:
         )
         armed = tuple(1.0 if e.armed else 0.0 for e in d.escs)
         self.trace.row("esc", t_ns, (*self._last_cmd_us, *d.throttle, *armed))
+        self.trace.row("dev", t_ns, (float(self.adc_conversions),))
         rec = self.out
         t_host = clock.monotonic_ns()
         if d.rc_frames:

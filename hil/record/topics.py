@@ -264,7 +264,9 @@ _CRITERION = {"type": "object", "description": "one criterion (hil.analysis.crit
               "properties": {"name": _str("criterion"), "signal": _str("trace signal"),
                              "metric": _str("metric"), "value": _num("measured value, signal units"),
                              "bound": _str("the bound, as written in the scenario"),
-                             "passed": _bool("passed"), "detail": _str("free text")},
+                             "passed": _bool("passed (true too when not judged: it does not fail the run)"),
+                             "judged": _bool("false: not judged (a compute budget without a calibrated cpu_scale)"),
+                             "detail": _str("free text")},
               "required": ["name", "passed"], "additionalProperties": False}
 VERDICT = _message(
     "hil.Verdict", "How the run ended and the scenario's criteria results.", Stamp.SIM,

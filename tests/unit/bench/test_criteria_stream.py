@@ -23,7 +23,7 @@ from hil.analysis.trace_stream import TraceStream, TraceTee
 
 TICK_NS = 25_000_000  # coarse ticks: a few hundred cover seconds of windows and steps
 METRICS = ["max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std", "rms_delta",
-           "overshoot", "settling_time", "fraction_saturated", "rise_time", "phase_lag_deg", "rms_change_pct"]
+           "overshoot", "settling_time", "fraction_saturated", "rise_time", "phase_lag_deg", "rms_change_pct", "increase"]
 SIGNALS = ["truth.a", "truth.b", "esc.p", "esc.p[1]", "tm.x", "truth.a - tm.x", "tm.x - truth.b",
            "truth.a - truth.b", "truth.a - esc.p[2]", "tm.missing", "truth.nope"]
 #: one-column signals (a phase fit of a 3-column field is an error in both, differently)
@@ -47,18 +47,19 @@ def criteria(draw) -> Criterion:
     metric = draw(st.sampled_from(METRICS))
     signals = SCALARS if metric == "phase_lag_deg" else SIGNALS
     kw: dict[str, object] = {"name": "c", "signal": draw(st.sampled_from(signals)), "metric": metric, "max": 1.0}
+    if metric == "overshoot":
+        kw["min"] = -1.0
     kw["window_s"] = draw(windows())
+    kw["nonfinite_fraction_max"] = draw(st.sampled_from([0.0, 0.0, 0.3, 1.0]))
     if metric == "fraction_saturated":
         kw["lo"], kw["hi"] = draw(st.sampled_from([None, -1.0, 0.0])), draw(st.sampled_from([None, 1.0, 2.0, 30.0]))
     if metric in ("overshoot", "settling_time", "rise_time"):
         kw["step_t_s"] = None if draw(st.integers(0, 9)) == 0 else draw(times_s)
-        kind = draw(st.sampled_from(["target", "step_size", "final", "none"]))
+        kind = draw(st.sampled_from(["target", "step_size", "none"]))
         if kind == "target":
             kw["target"] = draw(st.floats(-10, 10))
         elif kind == "step_size":
             kw["step_size"] = draw(st.floats(-10, 10))
-        elif kind == "final":
-            kw["final_window_s"] = draw(windows().filter(lambda w: w is not None))
         kw["start"] = draw(st.one_of(st.none(), st.floats(-10, 10)))
         kw["pre_step_s"] = draw(st.floats(0.05, 3.0))
         kw["band"] = draw(st.one_of(st.none(), st.floats(0.0, 5.0)))
@@ -239,16 +240,12 @@ def steps(draw) -> tuple[dict[str, object], list[Criterion]]:
     crits = []
     for metric in ("overshoot", "settling_time", "rise_time"):
         window = None if draw(st.booleans()) else (0.0, float(t[-1]) * draw(st.floats(0.5, 1.0)))
-        kw: dict[str, object] = {"name": metric, "metric": metric, "max": 100.0, "step_t_s": step_t_s, "window_s": window,
+        kw: dict[str, object] = {"name": metric, "metric": metric, "max": 100.0, "min": -100.0, "step_t_s": step_t_s, "window_s": window,
                                  "signal": draw(st.sampled_from(["truth.b", "tm.x", "esc.p[0]", "truth.b - truth.a"]))}
-        kind = draw(st.sampled_from(["target", "step_size", "final"]))
-        if kind == "target":
+        if draw(st.booleans()):
             kw["target"], kw["start"] = level + size, draw(st.one_of(st.none(), st.just(level)))
-        elif kind == "step_size":
-            kw["step_size"] = size
         else:
-            f1 = draw(st.floats(step_t_s, max(step_t_s, float(t[-1])) + 1))
-            kw["final_window_s"] = (max(step_t_s, f1 - 1.0), f1)
+            kw["step_size"] = size
         if draw(st.booleans()):
             kw["band_fraction"] = draw(st.floats(0.02, 0.3))
         else:

@@ -41,8 +41,8 @@ CRITERIA = [
               baseline_window_s=(1.0, 5.0), max=50.0),
     Criterion(name="settle", signal="truth.h_m", metric="settling_time", step_t_s=3.0, step_size=1.0,
               band_fraction=0.05, max=1e9),
-    Criterion(name="overshoot", signal="truth.h_m", metric="overshoot", step_t_s=3.0, final_window_s=(4.0, 6.0),
-              max=1.0),
+    Criterion(name="overshoot", signal="truth.h_m", metric="overshoot", step_t_s=3.0, step_size=1.0,
+              min=-1.0, max=1.0),
     Criterion(name="rise", signal="truth.h_m", metric="rise_time", step_t_s=3.0, target=3.0, max=1e9),
 ]
 

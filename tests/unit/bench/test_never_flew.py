@@ -36,6 +36,7 @@ def _ground_trace(duration_s: float, tm_names: set[str]) -> Trace:
         },
     )  # fmt: skip
     tr.define("esc", {"cmd_us": 4, "throttle": 4, "armed": 4})
+    tr.define("dev", {"adc_conversions": 1})
     n = int(duration_s * 1e9) // TICK_NS + 1
     for k in range(n):
         t = k * TICK_NS
@@ -44,6 +45,7 @@ def _ground_trace(duration_s: float, tm_names: set[str]) -> Trace:
         bias = 0.2 + 0.01 * math.sin(k * 0.01)
         tr.row("truth", t, (bias, -bias, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 12.4, 1.1, 1.0))
         tr.row("esc", t, (1000.0,) * 4 + (0.0,) * 4 + (0.0,) * 4)
+        tr.row("dev", t, (3.0 * k,))  # the ADC read at every sample, on the ground too
     for t in range(0, n * TICK_NS, TM_PERIOD_NS):
         for name in tm_names:
             tr.point(name, t, 0.0)

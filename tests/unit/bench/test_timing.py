@@ -132,3 +132,50 @@ def test_lockstep_has_no_realtime_verdict_and_scaled_compute() -> None:
                          compute_us=scaled_compute_us(np.full(10, 50.0), 2.0), compute_source=ComputeSource.CPU)
     assert rep.realtime is None and rep.lateness_us is None
     assert rep.compute_us.p99 == 100.0 and rep.compute_source == "cpu"
+
+
+# -- compute budgets: judged only against a calibrated cpu_scale -------------------------------------------
+def _compute_runner(cpu_scale_source: str) -> ScenarioRunner:
+    from dataclasses import replace
+
+    from hil.config.rig import load_rig
+
+    rig = load_rig(None)
+    rig = replace(rig, flight=replace(rig.flight, cpu_scale=40.0, cpu_scale_source=cpu_scale_source))
+    sc = Scenario(scenario=ScenarioHeader(name="t", duration_s=1.0), timing={"compute_p99_us_max": 2500.0})
+    return ScenarioRunner(sc, rig)
+
+
+def _summary_text(criteria: list) -> str:
+    from io import StringIO
+
+    from rich.console import Console
+
+    from hil.analysis.summary import print_summary
+    from hil.config.rig import load_rig
+    from hil.flight.run_result import RunResult
+    from hil.flight.tickloop import EndReason
+
+    result = RunResult(None, EndReason.COMPLETED, criteria, 0, [], {}, {})
+    out = StringIO()
+    print_summary(Console(file=out, width=200), result, load_rig(None), Scenario(scenario=ScenarioHeader(name="t", duration_s=1.0)))
+    return out.getvalue()
+
+
+def test_compute_budget_without_calibration_is_not_judged() -> None:
+    """This host's CPU time at an uncalibrated cpu_scale says nothing of the target: the
+    budget is shown "not judged: no calibration", never "pass", whatever the figure."""
+    runner = _compute_runner("")
+    for figure_us in (300.0, 9000.0):
+        (c,) = runner.timing_criteria({"fc_compute_p99_us": figure_us}, None)
+        assert not c.judged and c.verdict == "not judged" and "no calibration" in c.detail
+    text = _summary_text(runner.timing_criteria({"fc_compute_p99_us": 300.0}, None))
+    assert "not judged (no calibration" in text and "pass" not in text
+
+
+def test_compute_budget_with_calibration_is_judged() -> None:
+    runner = _compute_runner("STM32F4 168 MHz: GPIO toggle around the loop, scope, median of 4000 hover samples")
+    (ok,) = runner.timing_criteria({"fc_compute_p99_us": 2000.0}, None)
+    (bad,) = runner.timing_criteria({"fc_compute_p99_us": 3000.0}, None)
+    assert ok.judged and ok.passed and bad.judged and not bad.passed
+    assert "FAIL" in _summary_text([bad]) and "pass" in _summary_text([ok])

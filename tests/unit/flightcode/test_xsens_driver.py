@@ -202,3 +202,61 @@ def test_read_asks_for_a_whole_frame_at_once() -> None:
     reads = port.reads
     assert drv.read_sample(0.0) is not None
     assert port.reads - reads == 1
+
+
+def _hover(dev, t_ns: int) -> bytes:
+    return dev.sample(t_ns, (0, 0, 0), (0, 0, 0), (0, 0, -9.8))
+
+
+def test_a_sample_whose_time_jumps_is_rejected() -> None:
+    """A frame corrupted on the wire with a matching checksum: its SampleTimeFine is hours
+    off (a high bit flipped). It is rejected and counted; the loop's clock goes on from the
+    next good sample, one period per sample."""
+    drv, dev, port = _started()
+    port.feed(_hover(dev, 0))
+    assert drv.read_sample(0.0).t_ns == 0  # type: ignore[union-attr]
+    port.feed(_hover(dev, 2_500_000 + (1 << 30) * 100_000))  # SampleTimeFine + 2^30 ticks: 29.8 h later
+    assert drv.read_sample(0.0) is None  # rejected, and nothing else arrived
+    assert drv.counters["rejected_time_jumps"] == 1
+    port.feed(_hover(dev, 5_000_000))
+    s = drv.read_sample(0.0)
+    assert s is not None and s.t_ns == 5_000_000
+    assert drv.counters["gap_samples"] == 1  # the rejected sample is missing from the stream
+
+
+def test_a_time_jump_backwards_is_rejected_too() -> None:
+    drv, dev, port = _started()
+    port.feed(_hover(dev, 10 * 2_500_000))
+    drv.read_sample(0.0)
+    port.feed(_hover(dev, 0))  # 25 ms back: unwrapped, 119 h forward
+    assert drv.read_sample(0.0) is None
+    port.feed(_hover(dev, 12 * 2_500_000))
+    s = drv.read_sample(0.0)
+    assert s is not None and s.t_ns == 2 * 2_500_000 and drv.counters["rejected_time_jumps"] == 1
+
+
+def test_a_device_clock_that_stays_jumped_is_believed_again() -> None:
+    """A device whose packet counter jumped: after a few rejections in a row its clock is
+    believed again as it reads, so the IMU is not lost for good."""
+    drv, dev, port = _started()
+    port.feed(_hover(dev, 0))
+    drv.read_sample(0.0)
+    dev.counter += 1000
+    got = []
+    for k in range(1, 6):
+        port.feed(_hover(dev, k * 2_500_000))
+        got.append(drv.read_sample(0.0))
+    assert got[0] is None and got[1] is None and got[2] is not None and got[3] is not None
+    assert (got[2].t_ns, got[3].t_ns) == (3 * 2_500_000, 4 * 2_500_000)
+    assert drv.counters["rejected_time_jumps"] == 2 and drv.counters["time_rebases"] == 1
+
+
+def test_a_real_gap_keeps_its_time() -> None:
+    """Samples lost on the line (counter and time advance together) are not a time jump."""
+    drv, dev, port = _started()
+    port.feed(_hover(dev, 0))
+    drv.read_sample(0.0)
+    dev.counter += 199  # 0.5 s of samples lost
+    port.feed(_hover(dev, 200 * 2_500_000))
+    s = drv.read_sample(0.0)
+    assert s is not None and s.t_ns == 500_000_000 and drv.counters["rejected_time_jumps"] == 0
