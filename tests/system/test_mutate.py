@@ -24,7 +24,7 @@ def test_mutate_kills_one_and_reports_a_survivor(tmp_path: Path) -> None:
     opts = {"rig": ROOT / "rigs" / "paper-quad.toml", "scenarios": [ROOT / "rigs" / "scenarios" / "fault-imu-silence.toml"],
             "exclude": None, "catalogue": ROOT / "rigs" / "mutation" / "flightcode.toml", "equivalents": None,
             "tree": ROOT / "flightcode", "only": ["drv-mtdata-gyro-y-sign", "tel-time-units"], "no_catalogue": False,
-            "operators": 0, "operator_seed": 1, "seeds": 1, "matrix": False, "keep_kills": True, "min_score": 0.5,
+            "operators": 0, "operator_seed": 1, "seeds": 1, "matrix": False, "keep_kills": True, "min_score": 0.5, "min_operator_score": 0.8,
             "workers": 2, "scheduler": None, "executor": "process", "mode": "lockstep", "out": tmp_path}
     con = Console(record=True, width=200)
     code = cli_run.run(opts, con)

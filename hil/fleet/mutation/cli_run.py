@@ -52,8 +52,9 @@ def _plan(o: dict[str, Any]) -> tuple[Plan, dict[str, str], str]:
         raise ConfigError(f"--executor: {o['executor']!r} is not one of {', '.join(_EXECUTORS)}")
     if o["seeds"] < 1:
         raise ConfigError("--seeds: must be >= 1")
-    if not 0.0 <= o["min_score"] <= 1.0:
-        raise ConfigError("--min-score: must be in 0..1")
+    for key in ("min_score", "min_operator_score"):
+        if not 0.0 <= o[key] <= 1.0:
+            raise ConfigError(f"--{key.replace('_', '-')}: must be in 0..1")
     cat_path: Path = o["catalogue"]
     cat = load_catalogue(cat_path)
     tree = o["tree"] or Path(cat.target.tree)
@@ -133,10 +134,11 @@ def run(o: dict[str, Any], console: Console | None = None) -> int:
             "operators": o["operators"], "operator_seed": o["operator_seed"]}
     report = rep.build(plan.mutants, {r["mutant"]: r for r in results}, all_diffs, eq,
                        [s.stem for s in plan.suite.scenarios], meta)
+    report["targets"] = rep.targets(report, o["min_score"], o["min_operator_score"])
     rep.write_json(report, cdir / "report.json")
     rep.plot_heatmap(report, cdir / "heatmap.png")
     rep.print_report(out, report)
     out.print(f"report: {cdir / 'report.json'}, {cdir / 'heatmap.png'}; wall {meta['wall_s']:.0f} s", highlight=False)
     if interrupted:
         return 130
-    return rep.exit_code(report, o["min_score"])
+    return rep.exit_code(report, o["min_score"], o["min_operator_score"])

@@ -96,6 +96,8 @@ def print_report(out: Console, report: dict[str, Any]) -> None:
             pct = "n/a" if s["score"] is None else f"{100 * s['score']:.1f} %"
             out.print(f"{origin}: {s['killed']} killed, {s['survived']} survived, {s['equivalent']} equivalent, "
                       f"{s['errors']} errors of {s['mutants']}: score {pct}", highlight=False)
+    for origin, threshold, met in report.get("targets", []):
+        out.print(f"target {origin} >= {100 * threshold:.0f} %: {'met' if met else 'NOT met'}", highlight=False)
     for r in report["mutants"]:
         if r["status"] == "survived":
             out.print(f"[bold red]survivor[/] {r['id']} ({r['layer']}/{r['kind']}): {r['effect']}", highlight=False)
@@ -131,7 +133,18 @@ def plot_heatmap(report: dict[str, Any], path: Path) -> None:
     plt.close(fig)
 
 
-def exit_code(report: dict[str, Any], min_score: float) -> int:
-    """0 when the score meets ``min_score`` (0..1), else 1."""
-    s = report["score"]["score"]
-    return 0 if s is not None and s >= min_score else 1
+def targets(report: dict[str, Any], min_score: float, min_operator_score: float) -> list[tuple[str, float, bool]]:
+    """(origin, threshold, met) for each origin that has mutants: the catalogue against
+    ``min_score``, operator mutants against ``min_operator_score`` (0..1)."""
+    out = []
+    for origin, threshold in (("catalogue", min_score), ("operator", min_operator_score)):
+        s = report["by_origin"][origin]
+        if s["mutants"]:
+            out.append((origin, threshold, s["score"] is not None and s["score"] >= threshold))
+    return out
+
+
+def exit_code(report: dict[str, Any], min_score: float, min_operator_score: float | None = None) -> int:
+    """0 when every origin's score meets its threshold (see :func:`targets`), else 1."""
+    t = targets(report, min_score, min_score if min_operator_score is None else min_operator_score)
+    return 0 if t and all(met for _, _, met in t) else 1

@@ -59,8 +59,10 @@ def test_survivors_by_layer_and_timing_only() -> None:
 
 def test_exit_code_follows_min_score() -> None:
     r = _report()
-    assert rep.exit_code(r, 0.6) == 0
-    assert rep.exit_code(r, 0.61) == 1
+    assert rep.exit_code(r, 0.5) == 0  # catalogue 0.5, operators 1.0
+    assert rep.exit_code(r, 0.51) == 1
+    assert rep.exit_code(r, 0.5, 1.0) == 0
+    assert rep.targets(r, 0.5, 0.8) == [("catalogue", 0.5, True), ("operator", 0.8, True)]
     empty = rep.build([spec("e")], {}, {}, {}, SCEN, {})
     assert empty["mutants"][0]["status"] == "not run" and rep.exit_code(empty, 0.0) == 1
 
@@ -71,9 +73,11 @@ def test_outputs(tmp_path: Path) -> None:
     assert json.loads((tmp_path / "r.json").read_text())["score"]["killed"] == 3
     rep.plot_heatmap(r, tmp_path / "h.png")
     assert (tmp_path / "h.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    r["targets"] = rep.targets(r, 0.95, 0.8)
     con = Console(record=True, width=200)
     rep.print_report(con, r)
     text = con.export_text()
     assert "hover: RMS roll error" in text and "survivor s1" in text and "--- a/s1" in text
     assert "catalogue: 2 killed, 2 survived, 1 equivalent, 1 errors of 6: score 50.0 %" in text
     assert "only a calibrated timing check could catch: t1 (survived)" in text
+    assert "target catalogue >= 95 %: NOT met" in text and "target operator >= 80 %: met" in text

@@ -24,7 +24,7 @@ def opts(tmp_path: Path, **kw: Any) -> dict[str, Any]:
     o = {"rig": ROOT / "rigs" / "paper-quad.toml", "scenarios": [SCEN / "fault-imu-silence.toml", SCEN / "hover.toml"],
          "exclude": None, "catalogue": ROOT / "rigs" / "mutation" / "flightcode.toml", "equivalents": None,
          "tree": ROOT / "flightcode", "only": ["ctl-yaw-rate-sign", "tel-time-units"], "no_catalogue": False,
-         "operators": 0, "operator_seed": 1, "seeds": 2, "matrix": False, "keep_kills": False, "min_score": 0.5,
+         "operators": 0, "operator_seed": 1, "seeds": 2, "matrix": False, "keep_kills": False, "min_score": 0.5, "min_operator_score": 0.8,
          "workers": 1, "scheduler": None, "executor": "process", "mode": "lockstep", "out": tmp_path / "out"}
     o.update(kw)
     return o
@@ -83,6 +83,7 @@ def test_exit_code_is_the_score_against_min_score(tmp_path: Path, monkeypatch: p
     ({"mode": "fast"}, "--mode"),
     ({"seeds": 0}, "--seeds"),
     ({"min_score": 2.0}, "--min-score"),
+    ({"min_operator_score": -0.1}, "--min-operator-score"),
     ({"catalogue": ROOT / "nope.toml"}, "nope.toml: cannot read"),
     ({"rig": ROOT / "nope-rig.toml"}, "nope-rig.toml: no such rig"),
 ])
