@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from hil import clock
 from hil.config import ConfigError
 from hil.fleet.campaign_executors import dask_available, default_workers, run_dask, run_pool
 from hil.fleet.mutation import operators
@@ -233,7 +232,3 @@ def diffs(plan: Plan, files: dict[str, bytes]) -> dict[str, str]:
 
 def tree_files(plan: Plan) -> dict[str, bytes]:
     return snapshot(plan.tree)
-
-
-def now_s() -> float:
-    return clock.monotonic_ns() / 1e9
