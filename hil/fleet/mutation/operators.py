@@ -58,7 +58,7 @@ def sites(tree: Path, modules: tuple[str, ...] | list[str]) -> list[OperatorSite
         module_ast = get_ast((tree / rel).read_text())
         nodes = list(ast_nodes(module_ast))
         for name, op in ops:
-            count = sum(1 for node in nodes for _ in op.mutation_positions(node))  # type: ignore[attr-defined]
+            count = sum(len(list(op.mutation_positions(node))) for node in nodes)  # type: ignore[attr-defined]
             out.extend(OperatorSite(rel, name, i) for i in range(count))
     return out
 
