@@ -10,6 +10,7 @@ from __future__ import annotations
 import random
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from hil.fleet.mutation.edits import Edit
 
@@ -37,7 +38,7 @@ def _modules(tree: Path, modules: tuple[str, ...] | list[str]) -> list[str]:
     return sorted(out)
 
 
-def _operators() -> list[tuple[str, object]]:
+def _operators() -> list[tuple[str, Any]]:
     import cosmic_ray.plugins
 
     ops = []
@@ -58,7 +59,7 @@ def sites(tree: Path, modules: tuple[str, ...] | list[str]) -> list[OperatorSite
         module_ast = get_ast((tree / rel).read_text())
         nodes = list(ast_nodes(module_ast))
         for name, op in ops:
-            count = sum(len(list(op.mutation_positions(node))) for node in nodes)  # type: ignore[attr-defined]
+            count = sum(len(list(op.mutation_positions(node))) for node in nodes)
             out.extend(OperatorSite(rel, name, i) for i in range(count))
     return out
 
