@@ -383,6 +383,8 @@ def fidelity(
     console.print(f"wrote {docs / 'fidelity.md'}: {'every row passes' if ok else 'some rows FAIL'}")
     raise typer.Exit(0 if ok else 1)
 
+app.command(name="mutate")(__import__("hil.cli_mutate", fromlist=["mutate"]).mutate)  # hil/cli_mutate.py
+
 
 def main() -> None:  # pragma: no cover - console entry
     app()
