@@ -24,7 +24,7 @@ from typing import Any, Literal
 
 from flightcode.config_tables import FlightConfig
 from flightcode.drivers.analog import parse_mount
-from flightcode.drivers.buspirate_spi import SPEED_CODES
+from flightcode.drivers.buspirate_protocol import SPEED_CODES
 
 
 class ConfigError(ValueError):

@@ -24,7 +24,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import IntEnum, IntFlag, unique
 
-from emulators.base import ByteDevice, DeviceEvent
+from emulators.base import DeviceEvent
+from emulators.rc.oneway import OneWayDevice
 from emulators.rc.params import CaptureParams
 from emulators.rc.ppm import PpmEdge
 
@@ -122,7 +123,7 @@ class CaptureLost(DeviceEvent):
     reason: str
 
 
-class CaptureFrontEnd(ByteDevice):
+class CaptureFrontEnd(OneWayDevice):
     """The capture MCU as a byte device on the ``rc`` port.
 
     The bench feeds PPM edges (:meth:`feed_edges`, in time order, possibly ahead of sim
@@ -135,6 +136,7 @@ class CaptureFrontEnd(ByteDevice):
     def __init__(self, params: CaptureParams) -> None:
         super().__init__()
         self.params = params
+        self.baud_bps = params.baud
         self._record_ns = params.bits_per_byte * CaptureWire.RECORD_LEN * NS_PER_S // params.baud
         self._seq = 0
         self._overrun = False
@@ -191,13 +193,3 @@ class CaptureFrontEnd(ByteDevice):
             _, data = self._scheduled.popleft()
             self._send(data)
             self.counters["records"] += 1
-
-    def receive(self, data: bytes, t_ns: int) -> None:
-        """The front-end has no commands; host bytes are counted and ignored."""
-        self.counters["rx_ignored_bytes"] += len(data)
-
-    def line_settings_changed(self, baud: int, t_ns: int) -> None:
-        """A host at another rate would read framing garbage; we count it (bytes stay clean)."""
-        super().line_settings_changed(baud, t_ns)
-        if baud != self.params.baud:
-            self.counters["baud_mismatch"] += 1

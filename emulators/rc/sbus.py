@@ -17,7 +17,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from enum import IntEnum, IntFlag, unique
 
-from emulators.base import ByteDevice, DeviceEvent
+from emulators.base import DeviceEvent
+from emulators.rc.oneway import OneWayDevice
 from emulators.rc.params import SbusParams
 from emulators.rc.ppm import PpmEdge
 
@@ -159,7 +160,7 @@ class PpmDecoder:
         return None
 
 
-class SbusConverter(ByteDevice):
+class SbusConverter(OneWayDevice):
     """A PPM-to-SBUS converter on the ``rc`` port.
 
     The bench feeds PPM edges (:meth:`feed_edges`) and calls :meth:`advance`; a frame is
@@ -174,6 +175,7 @@ class SbusConverter(ByteDevice):
     def __init__(self, params: SbusParams) -> None:
         super().__init__()
         self.params = params
+        self.baud_bps = params.baud
         self.decoder = PpmDecoder(params.ppm_sync_min_us, params.ppm_min_us, params.ppm_max_us,
                                   params.ppm_min_channels)
         self._edges: deque[PpmEdge] = deque()
@@ -228,16 +230,6 @@ class SbusConverter(ByteDevice):
             self.counters["frames_failsafe"] += frame.failsafe
             self._next_frame_ns += self._period_ns
         self._decode_until(t_ns)
-
-    def receive(self, data: bytes, t_ns: int) -> None:
-        """SBUS is one-way; host bytes are counted and ignored."""
-        self.counters["rx_ignored_bytes"] += len(data)
-
-    def line_settings_changed(self, baud: int, t_ns: int) -> None:
-        """Count a host rate other than 100000 bit/s (a real host would read garbage)."""
-        super().line_settings_changed(baud, t_ns)
-        if baud != self.params.baud:
-            self.counters["baud_mismatch"] += 1
 
 
 def pulses_from_frame(frame: SbusFrame, n: int = 8) -> tuple[float, ...]:

@@ -23,7 +23,8 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Sequence
 
-from flightcode.drivers.buspirate_spi import BusPirateSpi, encode_transfers
+from flightcode.drivers.buspirate_protocol import encode_transfers
+from flightcode.drivers.buspirate_spi import BusPirateSpi
 
 RESOLUTION_CODES = 4096
 START_BIT = 0x04

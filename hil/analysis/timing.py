@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hil.frozen import by_fields
+from hil.native.frozen import by_fields
 
 
 NOMINAL_PERIOD_US = 2500.0
@@ -50,7 +50,7 @@ class Stats:
     mean: float
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+        return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)
 
     @staticmethod
     def of(values: np.ndarray) -> Stats:
@@ -111,7 +111,7 @@ class TimingReport:
     compute_source: ComputeSource = ComputeSource.TELEMETRY
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+        return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)
 
     def as_dict(self) -> dict[str, object]:
         return asdict(self)
@@ -128,7 +128,7 @@ class RealtimeVerdict:
     max_us: float
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+        return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)
 
     @property
     def text(self) -> str:

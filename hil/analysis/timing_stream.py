@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hil.frozen import by_fields
+from hil.native.frozen import by_fields
 
 #: relative width of a StreamingStats bin: percentiles are within half of it (0.25 %)
 STREAM_RESOLUTION = 0.005
@@ -149,7 +149,7 @@ class LatencySample:
         object.__setattr__(self, "lateness_ns", lateness_ns)
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+        return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)
 
 
 class LatencyStats:

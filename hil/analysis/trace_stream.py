@@ -37,7 +37,7 @@ from typing import Protocol
 
 import numpy as np
 
-from hil.frozen import by_fields
+from hil.native.frozen import by_fields
 
 #: ticks a chunk holds at least (one second at 400 Hz)
 CHUNK_TICKS = 400
@@ -60,7 +60,7 @@ class Chunk:
     final: bool = False
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+        return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)
 
 
 Subscriber = Callable[[Chunk], None]

@@ -25,7 +25,7 @@ TICK_PATH = (
     "hil/flight/tickloop.py", "hil/flight/tick.py", "hil/flight/devices.py", "hil/flight/runlog.py",
     "hil/flight/messages.py", "hil/analysis/timing.py", "hil/analysis/timing_stream.py",
     "hil/analysis/online_stats.py", "hil/analysis/trace_stream.py", "hil/analysis/criteria_stream.py",
-    "hil/analysis/signal_stream.py", "hil/flight/telemetry.py", "hil/frozen.py", "hil/record/process.py",
+    "hil/analysis/signal_stream.py", "hil/flight/telemetry.py", "hil/native/frozen.py", "hil/record/process.py",
     "hil/vtime/control.py", "hil/vtime/scheduler.py", "hil/vtime/port_io.py", "hil/vtime/stall.py",
     "hil/transport/base.py", "hil/transport/pty.py",
 )

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from hil.frozen import by_fields
+from hil.native.frozen import by_fields
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -55,7 +55,7 @@ class PlantState:
         object.__setattr__(self, "h_m", h_m)
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+        return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)
 
 
 class VibrationTone(NamedTuple):
@@ -118,4 +118,4 @@ class SensorTruth:
         object.__setattr__(self, "vib_f_acc_B", vib_f_acc_B)
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+        return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)

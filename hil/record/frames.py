@@ -18,22 +18,14 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from hil.plant.quat import mul
+
 WORLD_FRAME = "world"  #: ENU
 BODY_FRAME = "base_link"  #: FLU
 
 _S = math.sqrt(0.5)
 Q_EN: tuple[float, float, float, float] = (0.0, _S, _S, 0.0)
 Q_BF: tuple[float, float, float, float] = (0.0, 1.0, 0.0, 0.0)
-
-
-def quat_mul(a: Sequence[float], b: Sequence[float]) -> tuple[float, float, float, float]:
-    """Hamilton product a*b of (w, x, y, z) quaternions."""
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return (aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw)
 
 
 def ned_to_enu(p_N: Sequence[float]) -> tuple[float, float, float]:
@@ -43,7 +35,8 @@ def ned_to_enu(p_N: Sequence[float]) -> tuple[float, float, float]:
 
 def q_NB_to_q_EF(q_NB: Sequence[float]) -> tuple[float, float, float, float]:
     """Attitude (w, x, y, z) of FRD body in NED -> attitude of FLU body in ENU, normalised, w >= 0."""
-    q = quat_mul(quat_mul(Q_EN, [float(v) for v in q_NB]), Q_BF)
+    q_NB_f = (float(q_NB[0]), float(q_NB[1]), float(q_NB[2]), float(q_NB[3]))
+    q = mul(mul(Q_EN, q_NB_f), Q_BF)
     n = math.sqrt(sum(v * v for v in q)) or 1.0
     if q[0] < 0:  # same rotation; the w >= 0 hemisphere reads better in plots
         n = -n

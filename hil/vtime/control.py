@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Final
 
 from hil import clock
-from hil.frozen import by_fields
+from hil.native.frozen import by_fields
 from hil.vtime import abi
 
 #: CLOCK_MONOTONIC of the flight code at its start: far from any real uptime, so a clock
@@ -69,7 +69,7 @@ class ThreadView:
         object.__setattr__(self, "futex", futex)
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+        return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)
 
 
 # The record's field positions and values, as plain ints: compiled, a Final name is a C static,

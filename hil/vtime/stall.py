@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 from mypy_extensions import mypyc_attr
 
-from hil.frozen import by_fields
+from hil.native.frozen import by_fields
 from hil.vtime.control import ThreadView
 
 
@@ -37,4 +37,4 @@ class Stall:
     threads: tuple[ThreadView, ...]
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
-        return by_fields(self)  # compiled records pickle by field (hil/frozen.py)
+        return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)

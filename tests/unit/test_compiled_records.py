@@ -11,7 +11,7 @@ cost of the same body compiled. The records built on every 400 Hz tick therefore
 Written by hand, that ``__init__`` can drift from the fields: a field added without its
 parameter, two parameters swapped, a default lost or changed, ``frozen`` dropped with the
 edit. Callers build these records positionally and by keyword, and the pickling helpers
-(``hil.frozen.by_fields``, ``DeviceEvent.__reduce__``) rebuild them from their fields in
+(``hil.native.frozen.by_fields``, ``DeviceEvent.__reduce__``) rebuild them from their fields in
 ``dataclasses.fields()`` order, so any drift is a silent wrong value. These tests hold each
 written-out ``__init__`` to the generated one, on the interpreted sources and on the
 compiled build alike, and make sure a record written this way in the future joins the list.

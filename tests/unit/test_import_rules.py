@@ -126,5 +126,4 @@ def test_only_clock_reads_the_os_clock(path: Path) -> None:
 def test_plant_is_pure_numerics(path: Path) -> None:
     forbidden = {"asyncio", "os", "time", "random", "socket", "serial", "emulators", "flightcode", "threading"}
     bad = [(line, mod) for line, mod in _imports(path) if mod in forbidden]
-    # the benchmark script may use the clock module of the bench, nothing else
     assert not bad, f"{path}: the plant is pure numerics: {bad}"

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flightcode.drivers import buspirate_spi as bp
+from flightcode.drivers import buspirate_protocol as bp
 from flightcode.drivers import mcp3204
 from flightcode.drivers.base import DeviceError
 from flightcode.drivers.buspirate_spi import BusPirateSpi
