@@ -1,6 +1,6 @@
 """Bus Pirate v3 binary-mode SPI (BBIO1 / SPI1) as the flight code's SPI bridge.
 
-Protocol (research/protocols.md 7.1; DP wiki "SPI (binary)", pyBusPirateLite, flashrom):
+Protocol (docs/protocols.md 7.1; DP wiki "SPI (binary)", pyBusPirateLite, flashrom):
 
 * 20 x ``00`` from any mode -> ``BBIO1`` (every further ``00`` in BBIO answers ``BBIO1`` again);
   ``01`` -> ``SPI1``;
