@@ -35,7 +35,7 @@ def process_start_monotonic_ns() -> int:
     return time.monotonic_ns() - age_ns
 
 
-#: Sleep until this close to the deadline, then spin (limits.md §3: p99 < 1 us under RT,
+#: Sleep until this close to the deadline, then spin (docs/performance.md, Realtime pacing: p99 < 1 us under RT,
 #: ~16 us at normal priority; costs ~8 % of a core at 400 Hz).
 SPIN_NS = 200_000
 
@@ -54,7 +54,7 @@ def sleep_until_ns(deadline_ns: int, spin_ns: int = SPIN_NS) -> int:
 class RealtimePacer:
     """Absolute 400 Hz deadlines for the realtime mode.
 
-    asyncio's own timers round epoll timeouts up to whole milliseconds (limits.md §3),
+    asyncio's own timers round epoll timeouts up to whole milliseconds (docs/performance.md),
     so a helper thread sleeps to just before each deadline, spins the rest, and wakes the
     loop with ``call_soon_threadsafe``. ``wait(deadline_ns)`` returns the lateness in ns
     as observed on the event loop (including the hand-over).

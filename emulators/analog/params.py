@@ -1,6 +1,6 @@
 """Parameters of the analog front-end (rig TOML table ``[analog]`` and sub-tables).
 
-Defaults are the paper's vehicle (research/paper.md §3.4, protocols.md §3-4): an MPX5100AP
+Defaults are the paper's vehicle (docs/controllers.md §3.4, docs/protocols.md §3-4): an MPX5100AP
 on 5 V behind a x16 offset-and-gain stage into CH0, an ADXL335 on 3.3 V into CH1-3, the
 MCP3204's VREF on the 5 V rail.
 """
@@ -39,7 +39,7 @@ class Mpx5100apParams:
     unit_error_kPa: float | None = None
     response_time_s: float = 1.0e-3  #: 10-90 %; first-order tau = t / ln 9
     #: Output noise, V rms, correlated over the response time (not in the datasheet;
-    #: paper.md §7 uses 0.5 mV as realistic, 0.1 and 1.2 mV as bounds).
+    #: docs/controllers.md §7 uses 0.5 mV as realistic, 0.1 and 1.2 mV as bounds).
     noise_V_rms: float = 0.5e-3
 
 
@@ -55,7 +55,7 @@ class Adxl335Params:
 
     __pydantic_config__ = {"extra": "forbid"}
 
-    supply_V: float = 3.3  #: paper.md §3.4 (3.6 V maximum, so not the 5 V rail)
+    supply_V: float = 3.3  #: docs/controllers.md §3.4 (3.6 V maximum, so not the 5 V rail)
     sensitivity_per_g: float = 0.1  #: of Vs per g: 300 mV/g at 3 V, 330 mV/g at 3.3 V
     sensitivity_tolerance: float = 0.10  #: 270-330 mV/g at 3 V
     #: Zero-g tolerance per axis in V at Vs = 3 V (X, Y 1.35-1.65 V; Z 1.2-1.8 V), ratiometric.
@@ -65,7 +65,7 @@ class Adxl335Params:
     #: Noise density per axis at Vs = 3 V (constant in volts: 45 uV/rtHz on X, Y).
     noise_density_ug_per_rtHz_at_3V: tuple[float, float, float] = (150.0, 150.0, 300.0)
     filter_R_ohm: float = 32_000.0
-    #: CX, CY, CZ: 0.1 uF gives f-3dB = 1 / (2 pi 32 kOhm C) = 50 Hz (paper.md §3.4).
+    #: CX, CY, CZ: 0.1 uF gives f-3dB = 1 / (2 pi 32 kOhm C) = 50 Hz (docs/controllers.md §3.4).
     filter_C_uF: tuple[float, float, float] = (0.1, 0.1, 0.1)
     swing_low_V: float = 0.1
     swing_high_below_supply_V: float = 0.2  #: high limit = Vs - 0.2 V

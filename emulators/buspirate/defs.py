@@ -1,7 +1,7 @@
 """Bus Pirate v3 binary-mode wire constants.
 
 Sources: the firmware (DangerousPrototypes/Bus_Pirate, Firmware/binIO.c, SPI.c, baseUI.c),
-the DP wiki "SPI (binary)" / "Bitbang" pages, and research/protocols.md §7.1.
+the DP wiki "SPI (binary)" / "Bitbang" pages, and docs/protocols.md §7.1.
 """
 
 from __future__ import annotations

@@ -42,7 +42,7 @@ class TargetsSet(DeviceEvent):
     targets_qus: tuple[int, ...]
 
     def __init__(self, t_ns: int, first_channel: int, targets_qus: tuple[int, ...]) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "t_ns", t_ns)
         object.__setattr__(self, "first_channel", first_channel)
         object.__setattr__(self, "targets_qus", targets_qus)

@@ -1,6 +1,6 @@
 """MCP3204 wire constants and the bit-level protocol tables (Microchip DS21298E).
 
-Bit protocol (DS21298E §5.0/§6.0, research/protocols.md §2): with CS low, the first clock
+Bit protocol (DS21298E §5.0/§6.0, docs/protocols.md §2): with CS low, the first clock
 with DIN high is the start bit; SGL/DIFF, D2, D1, D0 follow (D2 is don't-care on the
 MCP3204). Sampling starts on the 4th rising edge after the start bit and ends on the falling
 edge of the 5th clock, where DOUT leaves hi-Z with a null bit (0); then B11..B0 MSB first,

@@ -71,7 +71,7 @@ class Mcp3204Conversion(DeviceEvent):
     vref_V: float
 
     def __init__(self, t_ns: int, channel: int, single_ended: bool, code: int, volts: float, vref_V: float) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "t_ns", t_ns)
         object.__setattr__(self, "channel", channel)
         object.__setattr__(self, "single_ended", single_ended)

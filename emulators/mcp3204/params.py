@@ -9,7 +9,7 @@ from dataclasses import dataclass
 class Mcp3204Params:
     """One MCP3204 on the vehicle's 5 V rail.
 
-    Defaults: VREF tied to the 5 V rail (research/paper.md §3.4, protocols.md §3 table),
+    Defaults: VREF tied to the 5 V rail (docs/controllers.md §3.4, docs/protocols.md §3 table),
     an ideal converter (DS21298E Table 1 allows offset and gain errors up to ±1.25 LSB each;
     set them to model a real part).
     """

@@ -1,7 +1,7 @@
 """Parameters of the RC chain: PPM receiver, timer-capture front-end, PPM-to-SBUS converter.
 
 Defaults describe the paper's vehicle (a 72 MHz 8-channel PPM receiver) and the common
-values in research/protocols.md section 5.
+values in docs/protocols.md section 5.
 """
 
 from __future__ import annotations

@@ -46,7 +46,7 @@ class PpmEdge:
     level: bool
 
     def __init__(self, t_ns: int, level: bool) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "t_ns", t_ns)
         object.__setattr__(self, "level", level)
 
@@ -60,7 +60,7 @@ class PpmFrame:
     glitch: bool = False
 
     def __init__(self, t_ns: int, pulses_us: tuple[int, ...], glitch: bool = False) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "t_ns", t_ns)
         object.__setattr__(self, "pulses_us", pulses_us)
         object.__setattr__(self, "glitch", glitch)

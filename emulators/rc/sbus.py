@@ -1,7 +1,7 @@
 """PPM-to-SBUS converter front-end: decodes the receiver's PPM like a converter MCU and
 sends SBUS frames at a fixed period.
 
-SBUS frame (ArduPilot ``AP_RCProtocol_SBUS.cpp``, research/protocols.md 5.2)::
+SBUS frame (ArduPilot ``AP_RCProtocol_SBUS.cpp``, docs/protocols.md 5.2)::
 
     0F | 22 bytes: 16 channels x 11 bits, LSB first | flags | end (00 for SBUS1)
     flags: bit0 ch17, bit1 ch18, bit2 frame lost, bit3 failsafe
@@ -100,7 +100,7 @@ class PpmDecoded(DeviceEvent):
     pulses_us: tuple[int, ...]
 
     def __init__(self, t_ns: int, pulses_us: tuple[int, ...]) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "t_ns", t_ns)
         object.__setattr__(self, "pulses_us", pulses_us)
 

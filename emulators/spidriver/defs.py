@@ -1,8 +1,8 @@
 """SPIDriver wire constants.
 
 Sources: the firmware (jamesbowman/spidriver firmware/main.fs: ``service`` and ``info``),
-protocol.md of the same repository, and the PyPI client spidriver 1.1.1 (research/
-protocols.md §7.2). Commands are single bytes; 0x80..0xBF transfer 1-64 bytes full duplex,
+protocol.md of the same repository, and the PyPI client spidriver 1.1.1 (docs/
+docs/protocols.md §7.2). Commands are single bytes; 0x80..0xBF transfer 1-64 bytes full duplex,
 0xC0..0xFF write 1-64 bytes; any other byte without a meaning is ignored (the client's
 64 x '@' flush relies on that).
 """

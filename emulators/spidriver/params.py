@@ -11,7 +11,7 @@ class SpiDriverParams:
     """An Excamera SPIDriver wired to the MCP3204.
 
     ``product`` "spidriver2" adds the mode field to the status line and accepts ``m``; the
-    PyPI client's ``setmode`` only works against a "spidriver2" (research/protocols.md §7.2).
+    PyPI client's ``setmode`` only works against a "spidriver2" (docs/protocols.md §7.2).
     The status values (serial, USB voltage, current, temperature) are what the front panel
     would show; the uptime is counted from sim time 0 plus ``uptime_at_t0_s``.
     """

@@ -43,7 +43,7 @@ class RfPacket:
     def __init__(self, t_ns: int, src16: int, src64: int, dest16: int | None, dest64: int | None, payload: bytes,
                  ack: bool, broadcast_pan: bool, channel: int, pan_id: int, tag: int,
                  kind: RfKind = RfKind.DATA) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "t_ns", t_ns)
         object.__setattr__(self, "src16", src16)
         object.__setattr__(self, "src64", src64)

@@ -18,7 +18,7 @@ class XBeeParams:
     """One module's non-volatile settings (AT parameter names in brackets).
 
     Defaults are the vehicle's module: API mode (AP=1) at 115200 bit/s (BD=7; 9600 cannot
-    carry 50 Hz telemetry, research/protocols.md 8.3), 16-bit address MY=1 sending to the
+    carry 50 Hz telemetry, docs/protocols.md 8.3), 16-bit address MY=1 sending to the
     ground station at DL=0. ``hv``/``vr`` identify an XBee-PRO 802.15.4 (HV high byte 0x18
     = XBP24-Axx; VR not starting with 8, so digi-xbee sees "802.15.4"). ``sh``/``sl``
     serial number; ``ni`` node identifier (<= 20 chars); ``ch``/``pan_id`` channel and PAN;

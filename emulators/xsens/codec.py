@@ -2,7 +2,7 @@
 
 Frame: ``FA BID MID LEN [LENH LENL] DATA CS``. LEN = 0xFF announces a 16-bit big-endian
 extended length. The checksum makes the sum of every byte after the preamble (BID, MID,
-LEN, the extended length bytes, DATA and CS) zero modulo 256 (protocols.md §1.2; xspublic
+LEN, the extended length bytes, DATA and CS) zero modulo 256 (docs/protocols.md §1.2; xspublic
 ``Xbus_insertChecksum`` includes the extended length bytes).
 """
 

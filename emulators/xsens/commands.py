@@ -310,7 +310,7 @@ _COMMON = frozenset({
 })
 #: Config-state messages each identity answers; anything else gets Error 0x04. The
 #: legacy MTi lacks the mk4 additions (ethz expects 0x04 from a "mark III" device for C0,
-#: 8E, ...); mk4 devices answer ReqDataLength with 0x04 (ethz, protocols.md §1.4).
+#: 8E, ...); mk4 devices answer ReqDataLength with 0x04 (ethz, docs/protocols.md §1.4).
 SUPPORTED: dict[Identity, frozenset[MID]] = {
     Identity.LEGACY: _COMMON | {MID.REQ_DATA_LENGTH},
     Identity.MK4: _COMMON | {

@@ -1,4 +1,4 @@
-"""The Configuration message (0x0D): exactly 118 bytes (protocols.md §1.7).
+"""The Configuration message (0x0D): exactly 118 bytes (docs/protocols.md §1.7).
 
 Layout (big-endian): master device id u32, sample period u16 (1/115200 s), output skip
 factor u16, SyncIn mode u16, SyncIn skip factor u16, SyncIn offset u32, date 8 s, time 8 s,

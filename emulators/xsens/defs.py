@@ -1,6 +1,6 @@
 """Xbus wire constants of the XSENS MTi (legacy MTi and mk4 MTi 100-series).
 
-Sources (research/protocols.md §1, which cites them): MID values from ethz-asl
+Sources (docs/protocols.md §1, which cites them): MID values from ethz-asl
 ``mtdef.py`` and xspublic ``xsxbusmessageid.h``; XDI values from xspublic
 ``xsdataidentifier.h``; error codes from xspublic ``xsresultvalue.h``; baud codes from
 xspublic ``xsbaudcode.h``; legacy output mode/settings bits from MT0100P pp. 27-28.

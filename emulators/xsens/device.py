@@ -9,7 +9,7 @@ State machine (mtidocs "States", MT0100P §5.3), as the tables below:
   are ignored (counted) while waking up.
 * CONFIG: requests are answered (commands.py); GoToMeasurement starts streaming.
 * MEASUREMENT: data messages on the output grid; only GoToConfig, Reset and ReqData are
-  valid; every other known message gets Error 0x04 (protocols.md §1.6).
+  valid; every other known message gets Error 0x04 (docs/protocols.md §1.6).
 
 Every state: unknown/unsupported MIDs -> Error 0x04; bad checksums are dropped silently;
 frames for another bus id are ignored. Nothing but data goes out unsolicited while

@@ -35,7 +35,7 @@ class SampleSent(DeviceEvent):
     def __init__(self, t_ns: int, packet_counter: int | None, sample_time_fine: int | None,
                  euler_deg: tuple[float, float, float] | None, rate_radps: tuple[float, float, float] | None,
                  acc_mps2: tuple[float, float, float] | None, nbytes: int) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "t_ns", t_ns)
         object.__setattr__(self, "packet_counter", packet_counter)
         object.__setattr__(self, "sample_time_fine", sample_time_fine)
@@ -68,7 +68,7 @@ class CommandHandled(DeviceEvent):
     error_code: int | None = None
 
     def __init__(self, t_ns: int, mid: int, reply_mid: int | None, error_code: int | None = None) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "t_ns", t_ns)
         object.__setattr__(self, "mid", mid)
         object.__setattr__(self, "reply_mid", reply_mid)

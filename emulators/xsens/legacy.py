@@ -1,6 +1,6 @@
 """Legacy MTData (0x32): layout from SetOutputMode / SetOutputSettings, encoder and decoder.
 
-Payload order (MT0100P p. 29, protocols.md §1.8): temperature, calibrated (acc, gyr, mag
+Payload order (MT0100P p. 29, docs/protocols.md §1.8): temperature, calibrated (acc, gyr, mag
 unless disabled by settings bits 4..6), orientation (quaternion 4 / Euler 3 / matrix 9),
 status byte, sample counter (u16). Scalars are float32 or signed fixed 12.20 (settings
 bits 9..8). The rotation matrix goes out column by column (a, b, c = first column), as in

@@ -1,7 +1,7 @@
 """MTData2 (0x36) payload: packets of ``XDI (u16) | size (u8) | data``, big-endian.
 
 Floating outputs are encoded in the precision selected by the XDI's low two bits
-(protocols.md §1.9): float32, float64, signed fixed 12.20 (i32 = round(v * 2^20)) and
+(docs/protocols.md §1.9): float32, float64, signed fixed 12.20 (i32 = round(v * 2^20)) and
 signed fixed 16.32 (6 bytes: u32 fraction then i16 integer part; value =
 (int16 * 2^32 + uint32) / 2^32, xspublic ``XsMessage_getDataFP1632``). Fixed-point
 values saturate at their range ends instead of wrapping.

@@ -1,7 +1,7 @@
 """Parameters of the XSENS MTi emulator (rig table ``[imu]``).
 
 Two identities: ``mk4`` (an MTi 100-series device speaking MTData2; by default the
-MTi-300 AHRS whose identity is in the golden capture, research/golden/xsens-mti300-captures.md)
+MTi-300 AHRS whose identity is in the golden capture, Scottapotamas/xsens-mti docs/mtmanager_packets.md)
 and ``legacy`` (a 2012-era MTi speaking MTData). Fields left at ``None`` take the
 identity's default from :data:`IDENTITY_DEFAULTS`.
 """
@@ -26,7 +26,7 @@ class PowerUp(StrEnum):
     """State the constructor leaves the device in."""
 
     #: Measurement with the stored configuration, no WakeUp sent (clients do not expect
-    #: one when they open the port; protocols.md §1.3 recommendation).
+    #: one when they open the port; docs/protocols.md §1.3 recommendation).
     MEASUREMENT = "measurement"
     #: A real power-up: WakeUp, then the 500 ms WakeUpAck window.
     WAKEUP = "wakeup"
@@ -63,7 +63,7 @@ IDENTITY_DEFAULTS: dict[Identity, IdentityDefaults] = {
         legacy_output_settings=0x0000_0001,
     ),
     # A plausible 2012 MTi (3rd generation): device id in the 0x0050xxxx family of
-    # protocols.md §1.2, a 3-byte FW revision; factory output quaternion + sample counter
+    # docs/protocols.md §1.2, a 3-byte FW revision; factory output quaternion + sample counter
     # at 100 Hz (MT0100P p. 25), error mode 1 (ethz docstring).
     Identity.LEGACY: IdentityDefaults(
         device_id=0x00500A2B,

@@ -69,7 +69,7 @@ class Ctx:
     t_device_ns: int
 
     def __init__(self, m: Measured, status: int, packet_counter: int, sample_time_fine: int, t_device_ns: int) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "m", m)
         object.__setattr__(self, "status", status)
         object.__setattr__(self, "packet_counter", packet_counter)
@@ -118,7 +118,7 @@ class Built:
     acc_mps2: Vec3 | None
 
     def __init__(self, payload: bytes, euler_deg: Vec3 | None, rate_radps: Vec3 | None, acc_mps2: Vec3 | None) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "payload", payload)
         object.__setattr__(self, "euler_deg", euler_deg)
         object.__setattr__(self, "rate_radps", rate_radps)

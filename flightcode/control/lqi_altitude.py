@@ -1,4 +1,4 @@
-"""Altitude model and LQI altitude controller (Wang/Ma/Sun Eqs. 4.4-4.14, research/paper.md 3.1-3.3).
+"""Altitude model and LQI altitude controller (Wang/Ma/Sun Eqs. 4.4-4.14, docs/controllers.md 3.1-3.3).
 
 Model (z up, m): thrust F = F_max d^2 linearised at the hover throttle d_h = sqrt(m g / F_max),
 gain k = dF/dd = 2 F_max d_h (N per unit throttle), first-order thrust lag T1:
@@ -9,8 +9,8 @@ with the input u = d - d_h (throttle deviation; it absorbs m g, Eq. 4.3). LQI au
 integral x_r' = r - z (the sign of the paper's matrix in Eq. 4.6) and solves the continuous
 Riccati equation (``flightcode.control.design.lqr``, python-control's ``lqr`` computation): u = -F1 x - F2 x_r. The defaults Q = diag(0, 0, 0,
 8.25e-3), R = 1 give F1 = [0.1415, 0.1103, 0.00796], F2 = -0.0908 and a 5 m step with 0.41 m
-overshoot settling (2 %) in 5.0 s (paper.md 3.2). The continuous gains are emulated at 400 Hz
-(x_r integrated by forward Euler); paper.md 3.3 shows the discrete design differs by < 0.3 %.
+overshoot settling (2 %) in 5.0 s (docs/controllers.md 3.2). The continuous gains are emulated at 400 Hz
+(x_r integrated by forward Euler); docs/controllers.md 3.3 shows the discrete design differs by < 0.3 %.
 
 The model has no vertical damping, and the weights are the design's only free knob (the paper
 gives neither Q nor R). On a vehicle whose rotors damp climbs and descents (inflow drag: the
@@ -38,7 +38,7 @@ G_MPS2 = 9.80665
 
 @dataclass(frozen=True)
 class AltitudeModel:
-    """Vertical dynamics of the vehicle. Defaults: the paper's quad (paper.md 3.1).
+    """Vertical dynamics of the vehicle. Defaults: the paper's quad (docs/controllers.md 3.1).
 
     Fields:
         m_kg: take-off mass, kg.

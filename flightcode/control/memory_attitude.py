@@ -1,6 +1,6 @@
 """Memory-based (time-delay-estimation) roll/pitch controller of Wang/Ma/Sun, per axis.
 
-Law (research/paper.md 2.1, Eq. 3.24 corrected, with the generalised weights)::
+Law (docs/controllers.md 2.1, Eq. 3.24 corrected, with the generalised weights)::
 
     e   = phi - phi*                       (rad; phi = measured Euler angle)
     s   = e' + k0 e                        (rad/s; e' from the gyro Euler rate, never d/dt phi)
@@ -11,7 +11,7 @@ On the Euler error model this closes the loop as
 ``s_{k+1} - (p1 + p2) s_k + p1 p2 s_{k-1} = T (f_k - f_{k-1})`` with
 ``w1 = (p1 + p2 - 2)/T`` and ``w2 = (1 - p1 p2)/T``. The paper's literal weights
 (w1 = -2/T, w2 = 1/T, p1 = p2 = 0, deadbeat) are unstable at 400 Hz with any motor lag or one
-sample of delay (paper.md 2.4); they stay selectable (:meth:`MemoryGains.paper_literal`) only so
+sample of delay (docs/controllers.md 2.4); they stay selectable (:meth:`MemoryGains.paper_literal`) only so
 the bench can show that its control-activity criterion catches the resulting chatter.
 
 Anti-windup is the paper's: the accumulator holds the torque actually applied (after the
@@ -34,13 +34,13 @@ def weights_from_poles(omega1_radps: float, omega2_radps: float, T_s: float) -> 
     return (p1 + p2 - 2.0) / T_s, (1.0 - p1 * p2) / T_s
 
 
-# paper.md 2.6: (omega1, omega2) = (2, 15) rad/s at 400 Hz -> w1 = -16.717, w2 = +16.644 1/s.
+# docs/controllers.md 2.6: (omega1, omega2) = (2, 15) rad/s at 400 Hz -> w1 = -16.717, w2 = +16.644 1/s.
 _W1_REC, _W2_REC = weights_from_poles(2.0, 15.0, 0.0025)
 
 
 @dataclass(frozen=True)
 class MemoryGains:
-    """Gains of one attitude axis. Defaults: the recommended 400 Hz set of paper.md 2.6.
+    """Gains of one attitude axis. Defaults: the recommended 400 Hz set of docs/controllers.md 2.6.
 
     Fields:
         T_s: loop period, s.
@@ -98,7 +98,7 @@ class MemoryGains:
         """The paper's deadbeat weights w1 = -2/T, w2 = 1/T, Eq. 3.25 (no eta, no lead).
 
         For demonstrations only: with any actuator lag or sample delay this chatters at the
-        torque limit (paper.md 2.4).
+        torque limit (docs/controllers.md 2.4).
         """
         return cls(T_s, k0_per_s, J_hat_kgm2, -2.0 / T_s, 1.0 / T_s, 0.0, u_limit_Nm, False)
 
@@ -113,7 +113,7 @@ class MemoryGains:
     def pid_equivalent(self) -> tuple[float, float, float]:
         """(K_p N m/rad, K_i N m/(rad s), K_d N m s/rad) of the equivalent PID on e (u = -PID).
 
-        From u = -J w2 s + (J (w1 + w2)/T) integral(s) with s = e' + k0 e (paper.md 2.1/2.6).
+        From u = -J w2 s + (J (w1 + w2)/T) integral(s) with s = e' + k0 e (docs/controllers.md 2.1/2.6).
         """
         j, t, k0 = self.J_hat_kgm2, self.T_s, self.k0_per_s
         w1, w2 = self.w1_per_s, self.w2_per_s

@@ -32,7 +32,7 @@ Differential (``differential``):
   design hover throttle d_h, as the PWM mixers of the paper's era were
   (d_i = d_c + dd_i). Then pairs (d_c + dd)^2 - (d_c - dd)^2 = 4 d_c dd: the torque applied
   per N m commanded is d_c / d_h. A payload that moves hover up the thrust curve raises the
-  torque gain with the thrust it needs (paper.md 2.7's payload model: x1.128 for +300 g).
+  torque gain with the thrust it needs (docs/controllers.md 2.7's payload model: x1.128 for +300 g).
   Implemented as the request scaled by d_c / d_h before the thrust-space mix: the first-order
   part, exact on one axis. A PWM mixer's dd^2 terms are left out: < 0.2 % of hover thrust on
   the collective, and cross-couplings when axes combine (11 mN m at 0.19 N m of pitch with

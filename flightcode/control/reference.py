@@ -2,7 +2,7 @@
 
 The memory attitude controller needs the reference and its first three derivatives
 (phi*, phi*', phi*'', phi*''') for the eta feed-forward with the actuator-lag lead
-(research/paper.md 2.5 item 4). The stick command is passed through
+(docs/controllers.md 2.5 item 4). The stick command is passed through
 
     G(s) = omega^3 / (s + omega)^3
 
@@ -37,7 +37,7 @@ class Prefilter3:
     """Critically damped third-order prefilter omega^3/(s+omega)^3 at sample period ``T_s``.
 
     Args:
-        omega_radps: pole (bandwidth) in rad/s; paper.md 2.5 recommends about 8 rad/s for
+        omega_radps: pole (bandwidth) in rad/s; docs/controllers.md 2.5 recommends about 8 rad/s for
             the attitude sticks.
         T_s: sample period in s (0.0025 at 400 Hz).
 

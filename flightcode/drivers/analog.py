@@ -5,17 +5,17 @@ interim chain of the ADC notes, to be aligned with docs/analog-chain.md):
 
 * MCP3204: ``code = floor(4096 v / vref_V)``; the inverse uses the bin centre,
   ``v = (code + 0.5) vref_V / 4096`` (unbiased for a uniformly distributed input).
-* MPX5100AP (protocols.md 3): ``v_sensor = supply_V (k_per_kPa P_kPa - offset_ratio)`` with
+* MPX5100AP (docs/protocols.md 3): ``v_sensor = supply_V (k_per_kPa P_kPa - offset_ratio)`` with
   k_per_kPa = 0.009, offset_ratio = 0.095, supply_V = 5 V; then the offset-and-gain stage
   ``v_adc = gain (v_sensor - offset_V) + ref_V`` (gain 16: 27.1 Pa / 16 = 1.7 Pa, i.e.
-  0.14 m per code near sea level, paper.md 3.4). Default offset_V = 3.928375 V puts a
+  0.14 m per code near sea level, docs/controllers.md 3.4). Default offset_V = 3.928375 V puts a
   sea-level field (101.325 kPa) at 2.5 V (mid-scale) on the ADC pin, as the bench's default
   rig does: 97.85..104.80 kPa fit into 0..5 V, about 290 m either way, room for the
   sensor's +-2.5 kPa unit error.
 * Altitude: ISA troposphere (U.S. Standard Atmosphere 1976 layer 0),
   ``h(P) = T0/L (1 - (P/101325)^(R L / g0 M))``, relative to the pressure averaged at boot:
   ``z = h(P) - h(P_boot)`` (m, positive up).
-* ADXL335 (protocols.md 4), ratiometric: ``v = supply_V (zero_g_ratio + sens_ratio_per_g a_g)``
+* ADXL335 (docs/protocols.md 4), ratiometric: ``v = supply_V (zero_g_ratio + sens_ratio_per_g a_g)``
   per axis with supply 3.3 V, zero_g_ratio 0.5, sens_ratio_per_g 0.1 (330 mV/g); a_g is the
   specific force along the sensor axis in g. ``mount_B`` maps sensor axes to body FRD axes.
 """

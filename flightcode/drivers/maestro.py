@@ -1,6 +1,6 @@
 """Pololu Maestro servo controller driving the four ESCs: compact Set Multiple Targets.
 
-Command (Maestro User's Guide 0J40 5.e; protocols.md 6.2)::
+Command (Maestro User's Guide 0J40 5.e; docs/protocols.md 6.2)::
 
     0x9F, n, first_channel, (target & 0x7F, (target >> 7) & 0x7F) x n
 

@@ -1,6 +1,6 @@
 """MCP3204 12-bit ADC (Microchip DS21298E) read through an SPI bridge, four channels a tick.
 
-Framing: the datasheet's 3-byte transaction (Fig. 6-1, SPI mode 0,0; protocols.md 2):
+Framing: the datasheet's 3-byte transaction (Fig. 6-1, SPI mode 0,0; docs/protocols.md 2):
 
 =====  ============================  =================================
 byte   MOSI                          MISO

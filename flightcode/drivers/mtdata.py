@@ -1,7 +1,7 @@
 """XSENS measurement payloads: MTData2 (mk4) and legacy MTData decoding, and the output
 configuration the flight code asks for.
 
-Sans-I/O. Wire facts (research/protocols.md 1.8, 1.9; MT0100P, MT0605P, xspublic
+Sans-I/O. Wire facts (docs/protocols.md 1.8, 1.9; MT0100P, MT0605P, xspublic
 ``xsdataidentifier.h``):
 
 * all fields big-endian; floats are IEEE-754 single unless the data identifier (MTData2) or
@@ -87,7 +87,7 @@ class LegacySettings(IntEnum):
 def mk4_output_configuration(rate_hz: int) -> tuple[tuple[int, int], ...]:
     """The (XDI with NED/float32 bits, frequency Hz) list the flight code sends to a mk4.
 
-    Frequency 0xFFFF = "in every packet" (MT Manager capture, protocols.md 1.9).
+    Frequency 0xFFFF = "in every packet" (MT Manager capture, docs/protocols.md 1.9).
     """
     every = 0xFFFF
     return (

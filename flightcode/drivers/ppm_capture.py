@@ -13,7 +13,7 @@ byte  content
 5     CRC-8 over bytes 1..4: polynomial 0x07, init 0x00, no reflection, no final xor
 ====  =====================================================================
 
-Decoder rules (protocols.md 5.1; ArduPilot AP_RCProtocol_PPMSum, Betaflight rx_pwm.c): a
+Decoder rules (docs/protocols.md 5.1; ArduPilot AP_RCProtocol_PPMSum, Betaflight rx_pwm.c): a
 channel is the time between consecutive edges of the same direction (separator + gap), so
 either pulse polarity works; an interval >= 2700 us is the sync gap that ends a frame; valid
 channel pulses lie strictly between 700 and 2300 us; anything else (or a lost edge, an

@@ -1,6 +1,6 @@
 """SBUS receiver (as from a PPM-to-SBUS converter): frame parser and RC input.
 
-Frame (protocols.md 5.2; ArduPilot AP_RCProtocol_SBUS.cpp), line 100000 bit/s 8E2
+Frame (docs/protocols.md 5.2; ArduPilot AP_RCProtocol_SBUS.cpp), line 100000 bit/s 8E2
 (inverted on the wire; a pty carries the bytes only):
 
 =====  ===============================================================

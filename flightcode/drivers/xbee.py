@@ -1,6 +1,6 @@
 """XBee-PRO (802.15.4) telemetry downlink in API mode: TX16 frames out, incoming frames parsed.
 
-API frame (Digi 802.15.4 manual; protocols.md 8.2)::
+API frame (Digi 802.15.4 manual; docs/protocols.md 8.2)::
 
     7E  len_hi len_lo  frame_data...  checksum       checksum = 0xFF - (sum(frame_data) & 0xFF)
 

@@ -1,6 +1,6 @@
 """Xbus framing (XSENS MTi): frame encoder and a resynchronising stream parser.
 
-Sans-I/O: bytes in, messages out; no port, no clock. Wire facts (research/protocols.md 1.2;
+Sans-I/O: bytes in, messages out; no port, no clock. Wire facts (docs/protocols.md 1.2;
 MT0101P/MT0605P, xspublic ``xbus.h``): frame ``FA FF MID LEN [LENEXT_H LENEXT_L] DATA CS``;
 LEN 0xFF marks a 16-bit extended length; every byte after 0xFA (including the extended
 length) plus CS sums to 0 mod 256; multi-byte fields are big-endian. The measurement

@@ -45,7 +45,7 @@ _DEG = math.pi / 180.0
 MAX_TIME_SLIP_PERIODS = 4
 #: consecutive time-jump rejections after which the device's clock is believed again
 REBASE_AFTER_REJECTS = 3
-#: Xbus error codes worth a name in messages (protocols.md 1.6).
+#: Xbus error codes worth a name in messages (docs/protocols.md 1.6).
 _ERROR_NAMES = {0x03: "period invalid", 0x04: "message invalid or not implemented", 0x20: "baud rate out of range",
                 0x21: "invalid parameter", 0x35: "output configuration error"}
 

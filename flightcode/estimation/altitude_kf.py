@@ -1,4 +1,4 @@
-"""Altitude Kalman filter: barometer + vertical accelerometer + thrust model (research/paper.md 3.5).
+"""Altitude Kalman filter: barometer + vertical accelerometer + thrust model (docs/controllers.md 3.5).
 
 States (z up), continuous time::
 
@@ -74,7 +74,7 @@ class AltitudeKF:
         r_baro_m2: barometric altitude noise variance, m^2 (default: the paper's chain without
             the x16 stage, 0.5 mV + quantisation; the flight config sets the vehicle's).
         r_acc: vertical acceleration noise variance, (m/s^2)^2 (vibration + ADXL noise + LSB;
-            paper.md 3.5 budgets 0.3 m/s^2). Checked against the bench's rotor-imbalance
+            docs/controllers.md 3.5 budgets 0.3 m/s^2). Checked against the bench's rotor-imbalance
             vibration (docs/vibration.md): it adds 0.02-0.03 m/s^2 RMS at 96 Hz to the vertical
             acceleration, and the altitude-step estimate error stays 0.07-0.11 m (0.07-0.11
             without it), also at 30x the imbalance: unchanged.

@@ -38,7 +38,7 @@ NOMINAL_PERIOD_US = 2500.0
 LATE_US = 1000.0
 #: realtime is not held when any tick starts later than this: the flight code then saw a
 #: gap of ten samples (its IMU watchdog is 100 ms; this machine's worst scheduling gaps are
-#: about 3 ms, research limits.md)
+#: about 3 ms, docs/time.md "Host interruptions")
 REALTIME_MAX_LATE_US = 25_000.0
 @dataclass(frozen=True)
 class Stats:

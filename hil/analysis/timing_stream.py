@@ -140,7 +140,7 @@ class LatencySample:
 
     def __init__(self, t_ns: int, t_emit_host_ns: int, t_arrival_host_ns: int | None, t_arrival_ns: int | None = None,
                  fc_cpu_ns: int | None = None, lateness_ns: int | None = None) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "t_ns", t_ns)
         object.__setattr__(self, "t_emit_host_ns", t_emit_host_ns)
         object.__setattr__(self, "t_arrival_host_ns", t_arrival_host_ns)

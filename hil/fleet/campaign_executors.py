@@ -26,7 +26,7 @@ _STOP_WAIT_S = 60.0  # after Ctrl-C, wait this long for the running cases to fin
 
 
 def default_workers() -> int:
-    """One case per two cores: concurrent runs distort each other's timing (ecosystem.md §7)."""
+    """One case per two cores: concurrent runs distort each other's timing (docs/performance.md, Cores per flight)."""
     return max(1, (os.cpu_count() or 2) // 2)
 
 

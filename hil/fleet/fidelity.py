@@ -7,7 +7,7 @@ shipped scenario's criteria. A row passes when it passes on every seed. The payl
 flies twin runs (with and without the payload event, same seed): the twins fly in the same
 air sample for sample (the Dryden noise does not depend on the vehicle's height path,
 hil/plant/dryden.py), so what differs is the vehicle. The paper-literal weights row passes
-when the bench *catches* them (their control activity fails), as designed (paper.md 2.4).
+when the bench *catches* them (their control activity fails), as designed (docs/controllers.md 2.4).
 Not part of CI: minutes of lockstep flights.
 """
 
@@ -62,7 +62,7 @@ ROWS: tuple[Row, ...] = (
         ("settles within +-5 % of the step",), "s"),
     Row("Fig. 9 altitude step", "altitude estimate RMS error <= 0.25 m", "altitude-step",
         ("altitude estimate: RMS error against truth",), "m"),
-    Row("paper.md 2.4", "paper-literal weights caught by control activity (ESC change > 15 us)",
+    Row("docs/controllers.md 2.4", "paper-literal weights caught by control activity (ESC change > 15 us)",
         "paper-literal-weights", ("control activity: sample-to-sample ESC change",), "us", expect="fail"),
 )
 
@@ -82,25 +82,23 @@ class TwinDetail:
     rotor_speed_ratio: float
 
 
-#: Why the rows stand where they do (issue 13); written under the table.
+#: Why the rows stand where they do; written under the table. Figures belong in the table (and
+#: the twins' details), which the flights produce: none are written here by hand.
 NOTES = [
     "* Fig. 9: the rig flies the LQI weights q_int = 0.04, q_z = 0.003 (rigs/paper-quad.toml",
     "  `[flight.overrides.altitude]`). The paper's altitude model has no vertical damping; the",
-    "  plant's rotors have 1.5 N/(m/s) of it (inflow drag), and with paper.md 3.2's weights the",
-    "  loop slowed to 0.73 m overshoot and 6.4 s (linear), 6.0-11.1 s on the bench (seeds 3 and 5",
-    "  swung back out of the band 10 s after the step). docs/flightcode.md \"Retuning the",
+    "  plant's rotors have some (inflow drag, rigs/paper-quad.toml), and with the weights of",
+    "  docs/controllers.md 3.2 the loop slows and overshoots. docs/flightcode.md \"Retuning the",
     "  altitude LQI\".",
-    "* Fig. 8: the twins fly in the same air sample for sample. Until issue 13 they did not: the",
-    "  Dryden noise was redrawn whenever the height crossed a 5 % band, so the twins parted",
-    "  0.36 s after the payload's sag began and the row compared two turbulence draws",
-    "  (5.4-31.9 %). With +300 g the rotors turn about 13 % faster, and the rotor aerodynamics'",
-    "  moments (blade flapping, hub drag, inflow drag: rotor speed x air speed) grow with them.",
-    "  The flight code's mixer is linear in throttle around hover, as the PWM mixers of the",
-    "  paper's era were and as paper.md 2.7's payload model has it (torque gain x1.128), so its",
-    "  authority grows with the collective the payload needs, and the tracking RMS changes by",
-    "  0.2-6.2 %. With a mixer that inverts the thrust curve (`[vehicle] mixer = \"thrust\"`,",
-    "  constant torque gain) it was 14.7-22.2 %: the paper's insensitivity needs both the memory",
-    "  controller and a torque gain that follows the thrust. docs/aerodynamics.md section 4.1.",
+    "* Fig. 8: the twins fly in the same air sample for sample (the Dryden noise does not depend",
+    "  on the vehicle's height path). With +300 g the rotors turn faster (the ratio per seed is",
+    "  below), and the rotor aerodynamics' moments (blade flapping, hub drag, inflow drag: rotor",
+    "  speed x air speed) grow with them. The flight code's mixer is linear in throttle around",
+    "  hover, as the PWM mixers of the paper's era were and as docs/controllers.md 2.7's payload",
+    "  model has it (torque gain x1.128), so its authority grows with the collective the payload",
+    "  needs. With a mixer that inverts the thrust curve (`[vehicle] mixer = \"thrust\"`, constant",
+    "  torque gain) the paper's insensitivity is lost: it needs both the memory controller and a",
+    "  torque gain that follows the thrust. docs/aerodynamics.md section 4.1.",
 ]
 
 
@@ -286,7 +284,7 @@ def write_report(
         "turbulence, docs/aerodynamics.md). Values on plant truth at sample time; median (min - max)",
         "over the seeds; a row passes when every seed passes. The paper gives no numbers beyond",
         "+-3 deg (Fig. 6), \"insensitive\" (Fig. 8) and \"about 5 s, 0.5 m\" (Fig. 9); the bounds are the",
-        "scenarios' (research/paper.md).",
+        "scenarios' (docs/controllers.md).",
         "",
         "| paper figure | claim (bound) | bench median (min - max) | pass |",
         "|---|---|---|---|",

@@ -9,7 +9,7 @@ to the kernel's flush work running on the idle CPU. The caches of a CPU that was
 also colder. Holding a CPU latency request of 0 us makes the idle governor poll instead
 (``idle=poll`` for the duration), as ``cyclictest`` and ``rtla timerlat --dma-latency`` do.
 
-Measured (docs/performance.md, fourteenth round), interleaved pairs of 10 s recorded hovers:
+Measured on the development VM, interleaved pairs of 10 s recorded hovers:
 lockstep RTF 2.8-2.9x -> 4.1-4.7x and the bench's CPU per tick 0.7-0.8 of before; realtime
 response p99 1.09-1.27 ms -> 0.68-0.79 ms.
 

@@ -5,7 +5,7 @@ In lockstep the bench and the flight code take turns, and the recorder child wor
 them. So one flight keeps more than one core busy. On a host with C cores, W flights at a
 time (a campaign's workers) can then be at most C / ``cores_used`` times faster than one,
 whatever else is done: sharing the cores never makes a flight need less CPU
-(docs/performance.md, fifteenth round).
+(docs/performance.md, Cores per flight).
 
 Read from ``/proc/<pid>/stat`` (user + system time, in clock ticks of 10 ms): good to about
 1 % over a few seconds of ticks.

@@ -5,7 +5,7 @@ come within the tick. Under the default policy (``SCHED_OTHER``) any other busy 
 the host shares the cores with them: with four CPU-bound processes beside a 10 s hover on a
 two-core machine, ticks were 8-24 ms late at p99 and 650-841 of 4001 samples got no command.
 ``SCHED_FIFO`` threads run before every ``SCHED_OTHER`` one: the same runs on it were 82-912 us
-late at p99 and 10-40 samples got no command (docs/performance.md, thirteenth round).
+late at p99 and 10-40 samples got no command (measured on the development VM; `--stress-cpu 4`).
 
 What is raised, and what is not:
 

@@ -10,7 +10,7 @@ A realtime run with its tick loop and flight code at ``SCHED_FIFO`` on an otherw
 guest has nothing left inside the guest that can hold it up for milliseconds. On the
 development VM, every realtime run whose tick loop saw no steal time had every sample
 answered (5 of 5), and nearly every run with steal time had some without a command (33 of
-35; docs/performance.md, fifteenth round). So a run reports the steal time it saw (``timing["host_steal_ms"]``), and
+35; tests/bench/bench_realtime_steal.py). So a run reports the steal time it saw (``timing["host_steal_ms"]``), and
 a realtime run whose misses came with steal time says so in a note.
 
 Units: ``/proc/stat`` counts in clock ticks (``USER_HZ``, 100 per second on Linux), so a

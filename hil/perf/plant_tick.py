@@ -1,4 +1,4 @@
-"""Cost of one plant tick, for the performance budget (research/limits.md section 4).
+"""Cost of one plant tick, for the performance budget (docs/performance.md, The plant in scalar Python).
 
 ``python -m hil.perf.plant_tick [n_ticks]`` prints the median and p99 cost in microseconds of
 one 2.5 ms tick with the default sub-steps: ``step`` alone, and ``step`` + ``state`` +

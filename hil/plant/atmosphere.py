@@ -1,7 +1,7 @@
 """ISA troposphere (U.S. Standard Atmosphere 1976, layer 0) with QNH and field elevation.
 
 ``p(h) = QNH * (1 - L h / T0) ** (g0 M / (R* L))`` with h the geometric height above mean
-sea level (the troposphere form of protocols.md section 3). Geometric height is used as
+sea level (the troposphere form of docs/protocols.md section 3). Geometric height is used as
 geopotential height, as the usual tables do; the difference, h^2 / R_earth, is 4 m at 5 km.
 A QNH other than 101325 Pa is the altimeter setting: the same curve scaled, so a standard
 altimeter set to QNH reads the true elevation. Temperature is ISA plus a constant deviation;
@@ -24,7 +24,7 @@ AIR_MOLAR_MASS_KG_PER_MOL = 0.0289644
 GAS_CONSTANT_J_PER_MOL_K = 8.3144598
 #: Specific gas constant of dry air, J/(kg K).
 AIR_R_J_PER_KG_K = GAS_CONSTANT_J_PER_MOL_K / AIR_MOLAR_MASS_KG_PER_MOL
-#: Pressure exponent g0 M / (R* L) = 5.25588 (protocols.md 3).
+#: Pressure exponent g0 M / (R* L) = 5.25588 (docs/protocols.md 3).
 ISA_EXPONENT = ISA_G0_MPS2 * AIR_MOLAR_MASS_KG_PER_MOL / (GAS_CONSTANT_J_PER_MOL_K * ISA_LAPSE_K_PER_M)
 #: ISA sea-level density, kg/m^3 (1.2250).
 ISA_RHO0_KGPM3 = ISA_P0_PA / (AIR_R_J_PER_KG_K * ISA_T0_K)

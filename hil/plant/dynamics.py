@@ -1,7 +1,7 @@
 """The 17-state equations of motion and the fixed-step RK4, on plain floats.
 
 Why it looks like this: numpy on a state this small is ~20x slower than scalar code
-(research/limits.md section 4), so the derivative is hand-unrolled with every constant bound
+(docs/performance.md, The plant in scalar Python), so the derivative is hand-unrolled with every constant bound
 as a closure variable (cheap to load), and ``rk4`` works on lists.
 
 State ``x`` (list of 17 floats)::

@@ -9,9 +9,9 @@ rig's ``[plant]`` table, and gathers the classes it is made of: the vehicle's
 Where a number comes from is said next to it:
 
 * "Table 1"   - Wang/Ma/Sun, Table 1 (1.1 kg, 500 mm, 250 mm high, ~8000 rpm, 1 kg lift,
-  3S 2100 mAh, 10 min flight), as read in research/paper.md section 1.
-* "paper.md"  - our derivations in research/paper.md (sections 2.3, 3.1).
-* "protocols" - research/protocols.md (section 3: ISA; section 6.1: motor lag).
+  3S 2100 mAh, 10 min flight), as read in docs/controllers.md section 1.
+* "docs/controllers.md" - the paper's design re-derived (sections 2.3, 3.1).
+* "protocols" - docs/protocols.md (section 3: ISA; section 6.1: motor lag).
 * "assumed"   - not in any source; a physically plausible choice, change it in the rig.
 
 Frames: body FRD with its origin at the hub centre, which is also the CG of the empty

@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass
 from enum import StrEnum, unique
 
-#: Standard gravity, m/s^2 (ISO 80000-3; also the ISA g0 of protocols.md section 3).
+#: Standard gravity, m/s^2 (ISO 80000-3; also the ISA g0 of docs/protocols.md section 3).
 G0_MPS2 = 9.80665
 
 Vec3 = tuple[float, float, float]
@@ -41,7 +41,7 @@ class GustShape(StrEnum):
 
 @dataclass(frozen=True)
 class EnvironmentParams:
-    """ISA atmosphere with an altimeter setting and a field elevation (protocols.md 3)."""
+    """ISA atmosphere with an altimeter setting and a field elevation (docs/protocols.md 3)."""
 
     __pydantic_config__ = {"extra": "forbid"}
 

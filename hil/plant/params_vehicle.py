@@ -3,7 +3,7 @@ rotor imbalance.
 
 Frozen dataclasses whose defaults are the paper's vehicle; each sets
 ``__pydantic_config__`` for ``hil/config/files.py``. Where each number comes from ("Table
-1", "paper.md", "protocols", "assumed"), the frames and the rotor numbering:
+1", "docs/controllers.md", "protocols", "assumed"), the frames and the rotor numbering:
 ``hil/plant/params.py``, which gathers every parameter class. This module imports nothing
 but the standard library and the environment's parameters (standard gravity, the shared
 checks).
@@ -37,7 +37,7 @@ class BodyParams:
     __pydantic_config__ = {"extra": "forbid"}
 
     mass_kg: float = 1.1  # Table 1
-    #: Principal moments (J_xx, J_yy, J_zz). J_xx from the component table of paper.md 2.3
+    #: Principal moments (J_xx, J_yy, J_zz). J_xx from the component table of docs/controllers.md 2.3
     #: (0.0153, plausible 0.012-0.020); J_yy = J_xx by symmetry; J_zz assumed from the same
     #: table with horizontal radii (motors 0.0188 + ESCs + arms + gear + hub = 0.024).
     inertia_B_kgm2: Vec3 = (0.0153, 0.0153, 0.024)
@@ -74,17 +74,17 @@ class RotorParams:
     omega_max_radps: float = 8000.0 * _RPM_TO_RADPS
     #: Battery voltage at which ``omega_max_radps`` holds (omega_max scales with voltage).
     #: 12.15 V is a full 3S pack under hover load (12.6 V open circuit minus ~0.45 V sag),
-    #: so the paper's hover throttle 0.724 (paper.md 3.1) is what it needs at take-off.
+    #: so the paper's hover throttle 0.724 (docs/controllers.md 3.1) is what it needs at take-off.
     omega_max_ref_V: float = 12.15
     #: Thrust of one rotor at ``omega_max_radps`` in ISA sea-level air: (1.1 kg + 1.0 kg
-    #: lift) * g / 4 = 20.6 N / 4 (Table 1, paper.md 3.1: F = F_max d^2).
+    #: lift) * g / 4 = 20.6 N / 4 (Table 1, docs/controllers.md 3.1: F = F_max d^2).
     thrust_max_N: float = (1.1 + 1.0) * G0_MPS2 / 4.0
     #: Drag torque / thrust (= k_Q / k_T) of the APC 12x4.5: static C_P / (2 pi C_T) x D
     #: gives 0.016-0.020 m; 0.016 is also the flight code's mixer constant. With the
     #: efficiency below the hover current is ~11 A: the ~10 min flight of Table 1.
     torque_per_thrust_m: float = 0.016
     #: Motor lag time constants for speeding up / slowing down (PX4 x500
-    #: MulticopterMotorModel: 0.0125 s / 0.025 s, protocols.md 6.1).
+    #: MulticopterMotorModel: 0.0125 s / 0.025 s, docs/protocols.md 6.1).
     tau_up_s: float = 0.0125
     tau_down_s: float = 0.025
     #: Spinning inertia of prop + motor bell (APC 12x4.5, ~19 g blade; assumed).
@@ -174,7 +174,7 @@ class AeroParams:
     #: Linear parasitic drag per body axis (assumed; ~0.35 N/(m/s) horizontal in hover with
     #: the rotor drag below, a 1 kg-class quad).
     linear_drag_B_N_per_mps: Vec3 = (0.10, 0.10, 0.20)
-    #: Quadratic drag F = -c v|v| per body axis (vertical 0.05 as in paper.md 3.5).
+    #: Quadratic drag F = -c v|v| per body axis (vertical 0.05 as in docs/controllers.md 3.5).
     quadratic_drag_B_N_per_mps2: Vec3 = (0.03, 0.03, 0.05)
     #: Rotor drag (H-force) in the rotor plane, per rotor, at its hub: F = -k_d * omega * v_hub
     #: (RotorPy's ``k_d`` form; Martin & Salaun, ICRA 2010, "The true role of accelerometer

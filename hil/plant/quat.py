@@ -1,4 +1,4 @@
-"""Scalar quaternion and rotation helpers on plain float tuples (no numpy: see limits.md 4).
+"""Scalar quaternion and rotation helpers on plain float tuples (no numpy: docs/performance.md).
 
 Convention: ``q = (w, x, y, z)``, Hamilton product, ``q_AB`` rotates vectors expressed in
 frame B into frame A: ``v_A = q_AB * v_B * conj(q_AB) = R(q_AB) v_B``. Euler angles are

@@ -37,7 +37,7 @@ class PlantState:
     def __init__(self, t_ns: int, p_N_m: Vec3, v_N_mps: Vec3, q_NB: Quat, omega_B_radps: Vec3, euler_rpy_rad: Vec3,
                  rotor_omega_radps: Four, thrust_N: Four, battery_V: float, battery_soc: float, battery_A: float,
                  on_ground: bool, wind_N_mps: Vec3, mass_kg: float, h_m: float) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "t_ns", t_ns)
         object.__setattr__(self, "p_N_m", p_N_m)
         object.__setattr__(self, "v_N_mps", v_N_mps)
@@ -105,7 +105,7 @@ class SensorTruth:
     def __init__(self, t_ns: int, q_NS: Quat, omega_S_radps: Vec3, f_S_mps2: Vec3, f_acc_B_mps2: Vec3,
                  p_static_Pa: float, air_T_C: float, vib_f_S: tuple[VibrationTone, ...] = (),
                  vib_omega_S: tuple[VibrationTone, ...] = (), vib_f_acc_B: tuple[VibrationTone, ...] = ()) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "t_ns", t_ns)
         object.__setattr__(self, "q_NS", q_NS)
         object.__setattr__(self, "omega_S_radps", omega_S_radps)

@@ -11,7 +11,7 @@ functions here are the readable reference used for set-up, snapshots and tests.
 * Speed command: ``omega_cmd = throttle * omega_max * V / V_ref`` (the ESC's duty cycle
   scales the battery voltage; back-EMF makes speed ~ voltage).
 * Lag: ``d omega/dt = (omega_cmd - omega) / tau`` with ``tau_up`` when speeding up and
-  ``tau_down`` when slowing down (protocols.md 6.1).
+  ``tau_down`` when slowing down (docs/protocols.md 6.1).
 """
 
 from __future__ import annotations

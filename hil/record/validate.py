@@ -1,6 +1,6 @@
 """Check a recorded MCAP file without the indexed reader the bench reads it with.
 
-Method of research/ecosystem.md section 2: stream every record with
+Method (independent of the indexed reader, MCAP spec https://mcap.dev/spec): stream every record with
 ``StreamReader(validate_crcs=True)`` to the footer (chunk CRCs, declared schemas and channels),
 validate every JSON message against its channel's JSON schema, decode every protobuf message
 with the schema the file carries and check it against the topic table's JSON schema of the

@@ -6,10 +6,10 @@ hil/record/routes.py): a topic check and a queue put (no encoding, no I/O). The 
 thread (hil/record/emit.py) encodes (protobuf or JSON, per topic: topics.py; payload.py),
 stamps, gathers wire bytes into 100 ms messages and adds messages to an
 ``mcap.writer.Writer`` (zstd chunks of at most ``chunk_size`` uncompressed bytes, 64 KiB by
-default: a 1 MiB chunk flush stalls 3-14 ms, research/limits.md section 5; zstd level:
+default: a 1 MiB chunk flush stalls for milliseconds, docs/performance.md, Recording; zstd level:
 zstd_level.py).
 
-File life cycle (research/ecosystem.md section 1, "crash behaviour"):
+File life cycle (docs/recording.md; MCAP spec https://mcap.dev/spec: summary and footer last):
 
 * ``start()`` creates ``<path>.part``, writes the header, the ``run`` metadata and the
   attachments straight to the OS, so a SIGKILLed run still has them;

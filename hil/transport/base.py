@@ -30,7 +30,7 @@ class WireRecord:
     data: bytes
 
     def __init__(self, port: str, direction: Direction, t_ns: int, t_host_ns: int, data: bytes) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "port", port)
         object.__setattr__(self, "direction", direction)
         object.__setattr__(self, "t_ns", t_ns)

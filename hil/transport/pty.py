@@ -1,7 +1,7 @@
 """Linux pseudo-terminal port.
 
 The bench holds the master; the client (flight code) opens the slave through a stable
-symlink in the run directory. Design points (measured in research/ecosystem.md §3):
+symlink in the run directory. Design points (checked by tests/pty/):
 
 * The bench keeps its own slave fd open for the port's whole life, so the master never
   reads EIO when the client closes and reopens.

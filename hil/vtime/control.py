@@ -55,7 +55,7 @@ class ThreadView:
     def __init__(self, index: int, tid: int, pid: int, seq: int, blocked: bool, deadline_ns: int | None, cpu_ns: int,
                  seen_epoch: int, keys: tuple[tuple[int, int], ...] | None, spin_yields: int,
                  futex: bool = False) -> None:
-        # written out: compiled, unlike the one @dataclass generates (docs/performance.md, eighth round)
+        # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "index", index)
         object.__setattr__(self, "tid", tid)
         object.__setattr__(self, "pid", pid)

@@ -343,7 +343,7 @@ class VirtualClock:
 
         Why: a lockstep tick waits for the flight code three to five times (its ADC request,
         its ESC command, each time it blocks); through asyncio each wait costs a loop
-        iteration, a future and a timer (docs/performance.md, seventh round)."""
+        iteration, a future and a timer (tests/bench/bench_vtime.py measures it)."""
         queued = [p.master_fd for p in self.ports.values() if p.writes_pending]
         readable, writable, _ = select.select(self._wait_fds, queued, [], self.inline_wait_s)
         if not readable and not writable:
