@@ -1,0 +1,102 @@
+"""Deliberately broken copies of the flight code, flown as a rig's ``[flight] command``.
+
+Each variant is one small edit of a copy of flightcode/ (the project's tree is never edited):
+``build_rig`` copies the tree, applies the edit (its anchor must occur exactly once), and
+writes a rig whose flight command runs that copy.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@dataclass(frozen=True)
+class Variant:
+    name: str
+    path: str  #: file in flightcode/, relative to the repository
+    anchor: str  #: text replaced (must occur exactly once)
+    replacement: str
+    scenario: str  #: the scenario that must fail
+    criteria: frozenset[str]  #: names of criteria of which at least one must fail
+    effect: str  #: what it would do to a real vehicle
+
+
+VARIANTS = [
+    Variant(
+        "altitude setpoint clamped at 3 m", "flightcode/loop.py",
+        "z = alt_range if z > alt_range else 0.0 if z < 0.0 else z",
+        "z = 3.0 if z > 3.0 else 0.0 if z < 0.0 else z",
+        "altitude-step",
+        frozenset({"overshoot over pre-step + 5 m: reaches the step, at most 1 m over",
+                   "settles within +-5 % of pre-step + 5 m", "rise time (10-90 % of the commanded 5 m)"}),
+        "a 5 m climb command stops at 3 m",
+    ),
+    Variant(
+        "ADC driver stops reading after its first failed read", "flightcode/drivers/mcp3204.py",
+        "        bridge = self.bridge\n        sent = bridge.counters[\"requests\"]\n",
+        "        if self.counters[\"failed_reads\"]:\n            return None\n"
+        "        bridge = self.bridge\n        sent = bridge.counters[\"requests\"]\n",
+        "fault-adc-garbage",
+        frozenset({"the ADC serves its 4 channels per 400 Hz sample again, 13-20 s (bench count, >= 99 %)",
+                   "the barometric altitude is finite and on truth again: mean error within 0.5 m"}),
+        "after one line glitch the barometer and accelerometer are never read again",
+    ),
+    Variant(
+        "IMU driver takes any SampleTimeFine for real", "flightcode/drivers/xsens.py",
+        "MAX_TIME_SLIP_PERIODS = 4\n", "MAX_TIME_SLIP_PERIODS = 10**9\n",
+        "fault-imu-bit-errors",
+        frozenset({"the sample clock never runs ahead: telemetry t_s <= 20.1 s"}),
+        "a corrupted frame with a matching checksum moves the loop's clock by hours",
+    ),
+]
+
+#: runs the copied flight code: its tree first on sys.path, then flightcode's own main
+_RUNNER = """import sys
+sys.path.insert(0, {tree!r})
+from flightcode.__main__ import main
+assert main.__module__ == "flightcode.__main__" and sys.modules["flightcode"].__file__.startswith({tree!r})
+sys.argv = ["flightcode", "--config", sys.argv[1]]
+sys.exit(main())
+"""
+
+
+def apply(tree: Path, variant: Variant) -> None:
+    """Apply ``variant``'s edit to the copy at ``tree``."""
+    target = tree / variant.path
+    text = target.read_text()
+    if text.count(variant.anchor) != 1:
+        raise ValueError(f"{variant.name}: anchor found {text.count(variant.anchor)} times in {variant.path}")
+    target.write_text(text.replace(variant.anchor, variant.replacement))
+
+
+def build_rig(tmp_path: Path, variant: Variant | None) -> Path:
+    """A copy of the default rig that flies a copy of flightcode/ with ``variant`` applied."""
+    tree = tmp_path / "tree"
+    shutil.copytree(ROOT / "flightcode", tree / "flightcode", ignore=shutil.ignore_patterns("__pycache__"))
+    if variant is not None:
+        apply(tree, variant)
+    runner = tmp_path / "run_copy.py"
+    runner.write_text(_RUNNER.format(tree=str(tree)))
+    text = (ROOT / "rigs" / "paper-quad.toml").read_text()
+    lines = []
+    for line in text.splitlines():
+        if line.startswith("command = "):
+            line = f'command = ["{{python}}", "{runner}", "{{config}}"]'
+        elif line.startswith("config = "):
+            line = f'config = "{ROOT / "rigs" / "flightcode-paper-quad.toml"}"'
+        lines.append(line)
+    rig = tmp_path / "broken-rig.toml"
+    rig.write_text("\n".join(lines) + "\n")
+    (tmp_path / "scenarios").mkdir(exist_ok=True)
+    return rig
+
+
+if __name__ == "__main__":  # python -m tests.system.broken_flightcode OUT_DIR INDEX: build one rig
+    out = Path(sys.argv[1])
+    out.mkdir(parents=True, exist_ok=True)
+    print(build_rig(out, VARIANTS[int(sys.argv[2])] if len(sys.argv) > 2 else None))
