@@ -6,7 +6,7 @@ vehicle; unknown tables and keys are errors naming the file and key):
     [rig]        name, description, tick_ns, default_scenario
     [plant]      -> hil.plant.params.PlantParams
     [imu]        -> emulators.xsens.params.XsensParams
-    [adc]        bridge = "buspirate"; [adc.mcp3204], [adc.buspirate], [adc.spidriver]
+    [adc]        bridge = "buspirate" (the only one); [adc.mcp3204], [adc.buspirate], [adc.spidriver] (hil devices)
     [analog]     -> emulators.analog.params.AnalogParams
     [rc]         frontend = "capture" | "sbus"; [rc.ppm], [rc.capture], [rc.sbus]
     [esc]        [esc.maestro], [esc.esc]
@@ -134,7 +134,8 @@ class HostSection:
 
 @dataclass(frozen=True)
 class AdcSection:
-    bridge: Literal["buspirate", "spidriver"]
+    #: the SPI bridge on the adc port; only the Bus Pirate (the flight code has no SPIDriver driver)
+    bridge: Literal["buspirate"]
     mcp3204: Any
     buspirate: Any
     spidriver: Any
@@ -197,7 +198,7 @@ class Rig:
         if port == "imu":
             return int(self.imu.baud_bps)
         if port == "adc":
-            return int(self.adc.buspirate.baud_bps if self.adc.bridge == "buspirate" else self.adc.spidriver.baud_bps)
+            return int(self.adc.buspirate.baud_bps)
         if port == "rc":
             return int(self.rc.capture.baud if self.rc.frontend == "capture" else self.rc.sbus.baud)
         if port == "esc":
@@ -247,8 +248,12 @@ def load_rig(name_or_path: str | Path | None = None) -> Rig:
     }
     bridge = _table(data, "adc").get("bridge", "buspirate")
     frontend = _table(data, "rc").get("frontend", "capture")
-    if bridge not in ("buspirate", "spidriver"):
-        raise ConfigError(f"{path}: [adc] bridge: must be 'buspirate' or 'spidriver' (got {bridge!r})")
+    if bridge == "spidriver":  # said, not done: refuse it rather than serve the Bus Pirate silently
+        raise ConfigError(f"{path}: [adc] bridge: 'spidriver' is not supported on the adc port (the flight code has "
+                          "no SPIDriver driver, so a run serves the Bus Pirate); use bridge = 'buspirate'. "
+                          "`hil devices` serves the SPIDriver model on its own port, adc-spidriver, with [adc.spidriver]")
+    if bridge != "buspirate":
+        raise ConfigError(f"{path}: [adc] bridge: must be 'buspirate' (got {bridge!r})")
     if frontend not in ("capture", "sbus"):
         raise ConfigError(f"{path}: [rc] frontend: must be 'capture' or 'sbus' (got {frontend!r})")
     rig = Rig(

@@ -79,3 +79,18 @@ def test_flightcode_check_config_answers_one_json_line(tmp_path: Path, typo: boo
     if not ok:
         assert verdict["key"] == "attitude.kp_typo" and "unknown key" in verdict["reason"]
         assert "attitude.kp_typo" in done.stderr
+
+
+def test_a_spidriver_bridge_is_refused_naming_file_and_key(tmp_path: Path) -> None:
+    """The flight code has no SPIDriver driver: the rig says so instead of serving a Bus Pirate."""
+    text = (ROOT / "rigs" / "paper-quad.toml").read_text().replace('bridge = "buspirate"', 'bridge = "spidriver"')
+    text = text.replace('config = "flightcode-paper-quad.toml"', f'config = "{ROOT / "rigs" / "flightcode-paper-quad.toml"}"')
+    assert 'bridge = "spidriver"' in text
+    rig = tmp_path / "spi.toml"
+    rig.write_text(text)
+    (tmp_path / "scenarios").mkdir()
+    (tmp_path / "scenarios" / "hover.toml").write_text((ROOT / "rigs" / "scenarios" / "hover.toml").read_text())
+    code, out = _run(tmp_path, rig)
+    assert code == 2, out
+    assert f"{rig}: [adc] bridge: 'spidriver' is not supported" in out
+    assert not (tmp_path / "logs").exists()
