@@ -1,7 +1,7 @@
 """Bus Pirate v3 binary-mode SPI (BBIO1 / SPI1), sans-I/O: the commands, the entry sequence,
 the encoding and checking of transfers. The serial part is :mod:`flightcode.drivers.buspirate_spi`.
 
-Protocol (research/protocols.md 7.1; DP wiki "SPI (binary)", pyBusPirateLite, flashrom):
+Protocol (docs/protocols.md 7.1; DP wiki "SPI (binary)", pyBusPirateLite, flashrom):
 
 * 20 x ``00`` from any mode -> ``BBIO1`` (every further ``00`` in BBIO answers ``BBIO1`` again);
   ``01`` -> ``SPI1``;
