@@ -44,6 +44,8 @@ from hil.flight.tickloop import BootError, Clock, EndReason, Mode, TickLoop
 from hil.host import cpulatency, rtsched
 from hil.host.cpulatency import LatencyMode
 from hil.host.cpuuse import ChildCpu
+from hil.live.topics import LiveConfig
+from hil.live.steer import attach_live
 from hil.host.rtsched import RtPolicy
 # looked up here at run time: tests put a fake host in its place (tests/system/test_host_figures.py)
 from hil.host.steal import StealMeter, realtime_note
@@ -115,6 +117,7 @@ async def run_flight_async(
     attach: Mapping[str, str] | None = None,
     started_ns: int | None = None,
     keep_trace: bool = False,
+    live: LiveConfig | None = None,
 ) -> RunResult:
     """Run one flight (see module docstring). Never raises for run-time failures; a scenario
     the rig refuses raises :class:`ConfigError` before anything is created.
@@ -125,7 +128,8 @@ async def run_flight_async(
     ``started_ns``: host monotonic instant the run was asked for (``hil run`` passes its process
     start): the timing figures then include ``start_to_tick0_s``, the wall time to tick 0.
     ``keep_trace``: keep every sample of the run's signals in ``RunResult.trace`` (the pytest
-    plugin's ``bench.signal``; 8 bytes a value, about 6 MB per flight minute). Without it the
+    plugin's ``bench.signal``; 8 bytes a value, about 6 MB per flight minute). ``live``: serve the
+    run to Foxglove and take its steering (hil/live, docs/live.md; needs ``record``). Without it the
     bench's memory does not grow with the flight's length: the criteria stream
     (hil/analysis/criteria_stream.py)."""
     # The recorder's writer thread must not hold the GIL for the default 5 ms while the
@@ -170,7 +174,7 @@ async def run_flight_async(
                 (rig.path.name, "application/toml", rig.path.read_bytes()),
                 (rig.flight_config_path.name, "application/toml", rig.flight_config_path.read_bytes()),
                 (f"{scenario.name}.toml", "application/toml", runner.source_bytes()),
-            ],
+            ], live=live, duration_ns=duration_ns,
         )
         recorder.start()
     # The criteria read the run's signals as they stream (a delay line longer than the oldest
@@ -243,6 +247,7 @@ async def run_flight_async(
     runner.attach_flight(flight)
     if on_ready is not None:
         on_ready(loop, devices, runner)
+    steering = attach_live(recorder, loop, runner, logger, lockstep=mode is Mode.LOCKSTEP)
     if progress is not None:
         logger.progress = lambda t_ns: progress(t_ns / 1e9, duration_ns / 1e9, runner.phase(t_ns))
 
@@ -294,6 +299,8 @@ async def run_flight_async(
         end, message = EndReason.INTERRUPTED, f"interrupted by {type(exc).__name__}: {exc}"
         raise
     finally:
+        if steering is not None:
+            steering.close()
         steal_ms = steal.stop()  # the tick loop's, before the teardown
         fc_cpu_ns, rec_cpu_ns = fc_cpu.stop(), rec_cpu.stop()
         rt.__exit__(None, None, None)
@@ -367,14 +374,11 @@ async def run_flight_async(
         trace=trace,
         recorded=dict(stats.messages_by_topic) if stats else {},
         dropped=stats.dropped if stats else 0,
-        seed=seed,
-        sim_s=loop.stats.ticks * rig.tick_ns / 1e9,
-        clock=clock_used,
-        clock_note=clock_note,
+        seed=seed, sim_s=loop.stats.ticks * rig.tick_ns / 1e9,
+        clock=clock_used, clock_note=clock_note,
         shim=shim,
         notes=notes,
-        rt_scheduling=rt_scheduling,
-        cpu_latency=wake.result,
+        rt_scheduling=rt_scheduling, cpu_latency=wake.result,
     )
 
 
