@@ -142,3 +142,53 @@ async def test_client_sees_steers_and_injects(fly):
     assert result.end_reason.value == "completed", explain(result)
     recorded = [m for _, _, m in iter_messages(result.log_path, topics=["/hil/events"])]
     assert any(m["kind"] == "live" and m["name"] == "inject" for m in recorded)
+
+
+async def test_live_view_and_pause_never_change_the_flight(fly, tmp_path):
+    """Same seed: without --live; with a slow client subscribed to every topic; and paused
+    for wall seconds at sim 2 s. The truth and every control wire are identical."""
+    from hil.record.topics import TOPICS
+    from tests.system.test_determinism import assert_same_flight
+
+    plain = await fly("hover", duration_s=3.0, out_dir=tmp_path / "plain")
+
+    slow = GatedRun(tuple(TOPICS), read_delay_s=0.01)  # reads 100 frames a second: the server drops
+    flight = asyncio.create_task(fly("hover", duration_s=3.0, out_dir=tmp_path / "slow", live=slow.config,
+                                     on_ready=slow.on_ready))
+    try:
+        client = await slow.client()
+    except BaseException:
+        await stop(slow, flight)
+        raise
+    try:
+        await client.subscribe(*TOPICS)
+        slow.open.set()
+        watched = await flight
+    finally:
+        await client.close()
+        await stop(slow, flight)
+    assert client.messages["/sim/truth"]  # it did see the flight, slowly
+    assert_same_flight(plain, watched)
+
+    held = GatedRun()
+    flight = asyncio.create_task(fly("hover", duration_s=3.0, out_dir=tmp_path / "held", live=held.config,
+                                     on_ready=held.on_ready))
+    try:
+        client = await held.client()
+    except BaseException:
+        await stop(held, flight)
+        raise
+    try:
+        await client.subscribe("/hil/events")
+        await client.advertise(1, STEER_TOPIC, "hil.Steer")
+        await send_json(client, 1, {"command": "step", "ticks": 800})
+        held.open.set()
+        await client.wait(lambda: live_events(client, "paused"))
+        await asyncio.sleep(2.0)  # the pause itself: the flight code waits these wall seconds
+        await send_json(client, 1, {"command": "resume"})
+        paused = await flight
+    finally:
+        await client.close()
+        await stop(held, flight)
+    assert live_events(client, "paused")[0]["detail"]["t_s"] == pytest.approx(1.9975)
+    assert_same_flight(plain, paused)
