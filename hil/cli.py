@@ -24,7 +24,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from hil.live.options import LiveOpt, LiveTopicsOpt, live_config
+from hil.live.options import LiveAddrOpt, LiveOpt, LiveTopicsOpt, live_config
 
 app = typer.Typer(
     help="Hardware-in-the-loop bench for the Wang/Ma/Sun quad-rotor MAV. "
@@ -59,7 +59,7 @@ def run(
     stress_adc_delay_us: Annotated[float, typer.Option(help="Timing stress: hold every ADC bridge reply back (wall us).")] = 0.0,
     wall_clock: Annotated[bool, typer.Option("--wall-clock", help="Lockstep with the flight code on the host clock (no clock shim; docs/time.md). For comparisons only: load then changes the flight.")] = False,
     attach: Annotated[list[str] | None, typer.Option("--attach", help="PORT=DEVICE: this port on a real serial device or URL (/dev/ttyUSB0, socket://host:port, rfc2217://host:port); repeatable; realtime only.")] = None,
-    live: LiveOpt = None, live_topics: LiveTopicsOpt = None,
+    live: LiveOpt = False, live_addr: LiveAddrOpt = None, live_topics: LiveTopicsOpt = None,
 ) -> None:
     """Fly the flight code against the emulated vehicle and write one MCAP log.
 
@@ -74,7 +74,7 @@ def run(
     # the recorder): an error must answer in well under half a second.
     if mode not in _MODES:
         _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
-    live_cfg = live_config(live, live_topics, record=not no_record)
+    live_cfg = live_config(live, live_addr, live_topics, record=not no_record)
     from hil.config import ConfigError, resolve_rig, resolve_scenario
 
     try:  # the files exist: found before the rig's validation imports the device models

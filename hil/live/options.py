@@ -10,14 +10,15 @@ import typer
 
 from hil.live.topics import LiveConfig, select_topics
 
-#: ``--live`` given without an address
+#: ``--live`` without ``--live-addr``
 LOOPBACK = "127.0.0.1:0"
 
-LiveOpt = Annotated[str | None, typer.Option(
-    "--live", flag_value=LOOPBACK, metavar="[ADDR]",
-    help="Serve the run to Foxglove as it flies, and take its pause/step/speed and /hil/inject "
-         "(docs/live.md). ADDR = HOST:PORT, default 127.0.0.1 on a free port; no authentication, "
-         "so a bind beyond loopback must be asked for explicitly.")]
+LiveOpt = Annotated[bool, typer.Option(
+    "--live", help="Serve the run to Foxglove as it flies, and take its pause/step/speed and /hil/inject "
+                   "(docs/live.md); prints the URL. 127.0.0.1 on a free port unless --live-addr.")]
+LiveAddrOpt = Annotated[str | None, typer.Option(
+    "--live-addr", metavar="HOST:PORT", help="With --live: where the server listens. No authentication: a bind "
+                                             "beyond loopback is said loudly (docs/live.md, Security).")]
 LiveTopicsOpt = Annotated[str | None, typer.Option(
     "--live-topics", help="With --live: more topics to serve beside the default set (comma-separated), or 'all'.")]
 
@@ -26,12 +27,14 @@ class LiveOptionError(ValueError):
     """A bad --live/--live-topics value (the message names the option and why)."""
 
 
-def parse_live(addr: str | None, topics: str | None, *, record: bool = True) -> LiveConfig | None:
-    """``--live [ADDR]`` and ``--live-topics`` as a :class:`LiveConfig` (None without --live)."""
-    if addr is None:
-        if topics:
-            raise LiveOptionError("--live-topics: needs --live")
+def parse_live(addr: str | None, topics: str | None, *, record: bool = True, live: bool = True) -> LiveConfig | None:
+    """``--live``, ``--live-addr`` (None: loopback, a free port) and ``--live-topics`` as a
+    :class:`LiveConfig` (None without --live)."""
+    if not live:
+        if topics or addr:
+            raise LiveOptionError(f"{'--live-topics' if topics else '--live-addr'}: needs --live")
         return None
+    addr = addr or LOOPBACK
     if not record:
         raise LiveOptionError("--live: serves what the run records; it cannot be used with --no-record")
     host, sep, port_text = addr.rpartition(":")
@@ -43,7 +46,7 @@ def parse_live(addr: str | None, topics: str | None, *, record: bool = True) -> 
         if not 0 <= port <= 65535:
             raise ValueError
     except ValueError:
-        raise LiveOptionError(f"--live: ADDR must be HOST:PORT with a port 0..65535 (got {addr!r})") from None
+        raise LiveOptionError(f"--live-addr: must be HOST:PORT with a port 0..65535 (got {addr!r})") from None
     try:
         selected = select_topics(topics)
     except ValueError as exc:
@@ -67,15 +70,15 @@ def announcer(config: LiveConfig) -> LiveConfig:
     return replace(config, announce=announce)
 
 
-def live_config(addr: str | None, topics: str | None, *, record: bool = True) -> LiveConfig | None:
+def live_config(live: bool, addr: str | None, topics: str | None, *, record: bool = True) -> LiveConfig | None:
     """For the CLI: the parsed options with the printing announcer; exit 2 with an error line
     on a bad value."""
     try:
-        config = parse_live(addr, topics, record=record)
+        config = parse_live(addr, topics, record=record, live=live)
     except LiveOptionError as exc:
         print(f"error: {exc}", file=sys.stderr)
         raise typer.Exit(2) from None
     return None if config is None else announcer(config)
 
 
-__all__ = ["LOOPBACK", "LiveOptionError", "LiveOpt", "LiveTopicsOpt", "announcer", "live_config", "parse_live"]
+__all__ = ["LOOPBACK", "LiveAddrOpt", "LiveOptionError", "LiveOpt", "LiveTopicsOpt", "announcer", "live_config", "parse_live"]
