@@ -18,7 +18,7 @@ from typing import Any
 #: what a person watches: pose and /tf, attitude and altitude truth, motors, telemetry (the
 #: altitude estimate and setpoints), the flight code's log, events and faults, timing
 DEFAULT_TOPICS: tuple[str, ...] = (
-    "/tf", "/sim/pose", "/sim/truth", "/hil/esc/output", "/fc/telemetry", "/fc/log", "/hil/events",
+    "/tf", "/sim/pose", "/sim/truth", "/hil/esc/command", "/hil/esc/output", "/fc/telemetry", "/fc/log", "/hil/events",
     "/hil/timing/tick", "/hil/verdict",
 )
 #: the default set is decimated to at most one message per this much sim time per topic (50 Hz)
