@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import AsyncIterator
 from pathlib import Path
+import sys
 from typing import TYPE_CHECKING, Any
 
 import pytest
@@ -77,6 +78,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                     help="keep the MCAP logs of failing hil_bench tests in DIR (default: <basetemp>/hil-logs)")
     group.addoption("--hil-keep-all", action="store_true", default=False,
                     help="keep the MCAP logs of passing hil_bench tests too")
+    group.addoption("--hil-live", action="store_true", default=False,
+                    help="serve every hil_bench run to Foxglove on 127.0.0.1 (docs/live.md); the URL goes to stderr")
     parser.addini("hil_keep_logs", "default for --hil-keep-logs", default="")
 
 
@@ -109,6 +112,24 @@ def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> Non
             terminalreporter.write_line(f"{nodeid}: {path}")
 
 
+def _live(nodeid: str, config: pytest.Config) -> Any:
+    """--hil-live: loopback, a free port; the URL printed on the terminal (past the capture)."""
+    from hil.live.topics import LiveConfig
+
+    reporter = config.pluginmanager.get_plugin("terminalreporter")
+    capture = config.pluginmanager.get_plugin("capturemanager")
+
+    def announce(url: str) -> None:
+        line = f"hil-live: {nodeid}: {url}"
+        if reporter is None or capture is None:
+            print(line, file=sys.stderr, flush=True)
+            return
+        with capture.global_and_fixture_disabled():  # the test's output is captured; this line is not
+            reporter.write_line(line)
+
+    return LiveConfig(announce=announce)
+
+
 def keep_dir_of(config: pytest.Config, basetemp: Path) -> Path:
     """--hil-keep-logs, else the ``hil_keep_logs`` ini value, else ``<basetemp>/hil-logs``."""
     value = config.getoption("hil_keep_logs") or config.getini("hil_keep_logs")
@@ -118,7 +139,8 @@ def keep_dir_of(config: pytest.Config, basetemp: Path) -> Path:
 async def _hil_bench(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> AsyncIterator[HilBench]:
     item = request.node
     keep = keep_dir_of(request.config, tmp_path_factory.getbasetemp())
-    factory = HilBench(item.nodeid, item.name, keep_dir=keep, keep_all=bool(request.config.getoption("hil_keep_all")))
+    factory = HilBench(item.nodeid, item.name, keep_dir=keep, keep_all=bool(request.config.getoption("hil_keep_all")),
+                       live=_live(item.nodeid, request.config) if request.config.getoption("hil_live") else None)
     item.stash[_FACTORY] = factory
     yield factory
     failed = [r for r in item.stash.get(_REPORTS, {}).values() if r.failed]
