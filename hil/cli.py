@@ -23,6 +23,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from hil.live.options import LiveAddrOpt, LiveOpt, LiveTopicsOpt, live_config
+
 app = typer.Typer(
     help="Hardware-in-the-loop bench for the Wang/Ma/Sun quad-rotor MAV. "
     "Exit status of every command: 0 success, 1 a verdict failed (criteria, timing, verify), "
@@ -67,6 +69,7 @@ def run(
     wall_clock: Annotated[bool, typer.Option("--wall-clock", help="Lockstep with the flight code on the host clock (no clock shim; docs/time.md). For comparisons only: load then changes the flight.")] = False,
     require_vt: Annotated[bool, typer.Option("--require-virtual-time", help="Lockstep: exit 2 rather than fall back to the host clock (shim missing, static binary, LD_PRELOAD dropped); also the rig's [flight] require_virtual_time.")] = False,
     attach: Annotated[list[str] | None, typer.Option("--attach", help="PORT=DEVICE: this port on a real serial device or URL (/dev/ttyUSB0, socket://host:port, rfc2217://host:port); repeatable; realtime only.")] = None,
+    live: LiveOpt = False, live_addr: LiveAddrOpt = None, live_topics: LiveTopicsOpt = None,
 ) -> None:
     """Fly the flight code against the emulated vehicle and write one MCAP log.
 
@@ -82,6 +85,7 @@ def run(
     # the recorder): an error must answer in well under half a second.
     if mode not in _MODES:
         _fail(f"--mode: must be 'lockstep' or 'realtime' (got {mode!r})")
+    live_cfg = live_config(live, live_addr, live_topics, record=not no_record)
     from hil.config import ConfigError, resolve_rig, resolve_scenario
 
     try:  # the files exist: found before the rig's validation imports the device models
@@ -127,7 +131,7 @@ def run(
             rig_obj, scenario_obj, mode=run_mode, seed=seed, duration_s=duration, out_dir=out,
             record=not no_record, progress=progress, scenario_source=source,
             virtual_time=False if wall_clock else None, require_virtual_time=require_vt or None, stress_cpu=stress_cpu,
-            stress_adc_delay_us=stress_adc_delay_us, attach=attach_map, started_ns=started_ns,
+            stress_adc_delay_us=stress_adc_delay_us, attach=attach_map, started_ns=started_ns, live=live_cfg,
         ))
 
     try:

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import AsyncIterator
 from pathlib import Path
+import sys
 from typing import TYPE_CHECKING, Any
 
 import pytest
@@ -80,6 +81,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--hil-require-virtual-time", action="store_true", default=False,
                     help="a lockstep bench that would fall back to the host clock (clock shim missing, "
                          "static program, LD_PRELOAD dropped) errors instead (as hil run --require-virtual-time)")
+    group.addoption("--hil-live", action="store_true", default=False,
+                    help="serve every hil_bench run to Foxglove on 127.0.0.1 (docs/live.md); the URL goes to stderr")
     parser.addini("hil_keep_logs", "default for --hil-keep-logs", default="")
 
 
@@ -112,6 +115,24 @@ def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> Non
             terminalreporter.write_line(f"{nodeid}: {path}")
 
 
+def _live(nodeid: str, config: pytest.Config) -> Any:
+    """--hil-live: loopback, a free port; the URL printed on the terminal (past the capture)."""
+    from hil.live.topics import LiveConfig
+
+    reporter = config.pluginmanager.get_plugin("terminalreporter")
+    capture = config.pluginmanager.get_plugin("capturemanager")
+
+    def announce(url: str) -> None:
+        line = f"hil-live: {nodeid}: {url}"
+        if reporter is None or capture is None:
+            print(line, file=sys.stderr, flush=True)
+            return
+        with capture.global_and_fixture_disabled():  # the test's output is captured; this line is not
+            reporter.write_line(line)
+
+    return LiveConfig(announce=announce)
+
+
 def keep_dir_of(config: pytest.Config, basetemp: Path) -> Path:
     """--hil-keep-logs, else the ``hil_keep_logs`` ini value, else ``<basetemp>/hil-logs``."""
     value = config.getoption("hil_keep_logs") or config.getini("hil_keep_logs")
@@ -122,7 +143,8 @@ async def _hil_bench(request: pytest.FixtureRequest, tmp_path_factory: pytest.Te
     item = request.node
     keep = keep_dir_of(request.config, tmp_path_factory.getbasetemp())
     factory = HilBench(item.nodeid, item.name, keep_dir=keep, keep_all=bool(request.config.getoption("hil_keep_all")),
-                       require_virtual_time=bool(request.config.getoption("hil_require_virtual_time")))
+                       require_virtual_time=bool(request.config.getoption("hil_require_virtual_time")),
+                       live=_live(item.nodeid, request.config) if request.config.getoption("hil_live") else None)
     item.stash[_FACTORY] = factory
     yield factory
     failed = [r for r in item.stash.get(_REPORTS, {}).values() if r.failed]

@@ -50,6 +50,8 @@ from hil.host.cpuuse import ChildCpu
 from hil.host.rtsched import RtPolicy
 # looked up here at run time: tests put a fake host in its place (tests/system/test_host_figures.py)
 from hil.host.steal import StealMeter
+from hil.live.steer import attach_live
+from hil.live.topics import LiveConfig
 from hil.record.process import ProcessRecorder
 from hil.vtime.preload import Fallback
 from hil.vtime.session import describe_stall
@@ -100,6 +102,7 @@ async def run_flight_async(
     attach: Mapping[str, str] | None = None,
     started_ns: int | None = None,
     keep_trace: bool = False,
+    live: LiveConfig | None = None,
 ) -> RunResult:
     """Run one flight (see module docstring). Never raises for run-time failures; a scenario
     the rig refuses raises :class:`ConfigError` before anything is created, and a resource
@@ -114,7 +117,8 @@ async def run_flight_async(
     ``started_ns``: host monotonic instant the run was asked for (``hil run`` passes its process
     start): the timing figures then include ``start_to_tick0_s``, the wall time to tick 0.
     ``keep_trace``: keep every sample of the run's signals in ``RunResult.trace`` (the pytest
-    plugin's ``bench.signal``; 8 bytes a value, about 6 MB per flight minute). Without it the
+    plugin's ``bench.signal``; 8 bytes a value, about 6 MB per flight minute). ``live``: serve the
+    run to Foxglove and take its steering (hil/live, docs/live.md; needs ``record``). Without it the
     bench's memory does not grow with the flight's length: the criteria stream
     (hil/analysis/criteria_stream.py)."""
     # The recorder's writer thread must not hold the GIL for the default 5 ms while the
@@ -136,7 +140,7 @@ async def run_flight_async(
     async with contextlib.AsyncExitStack() as stack:
         await _acquire(stack, run, attachments, keep_run_dir=keep_run_dir, stress_adc_delay_us=stress_adc_delay_us,
                        record=record, out_dir=out_dir, log_path=log_path, keep_trace=keep_trace,
-                       virtual_time=virtual_time)
+                       virtual_time=virtual_time, live=live)
         loop = run.loop
         assert loop is not None and run.logger is not None
         if on_ready is not None:
@@ -152,7 +156,8 @@ async def run_flight_async(
 
 async def _acquire(stack: contextlib.AsyncExitStack, run: RunState, attachments: Mapping[str, Any], *,
                    keep_run_dir: bool, stress_adc_delay_us: float, record: bool, out_dir: Path | str | None,
-                   log_path: Path | None, keep_trace: bool, virtual_time: bool | None) -> None:
+                   log_path: Path | None, keep_trace: bool, virtual_time: bool | None,
+                   live: LiveConfig | None) -> None:
     """Every resource of the run, each on ``stack`` as soon as it exists (hil/flight/run_setup.py)."""
     rig, scenario, runner = run.rig, run.scenario, run.runner
     with run_setup.started("opening the serial lines"):  # all or none: a missing/busy one leaves nothing
@@ -177,7 +182,8 @@ async def _acquire(stack: contextlib.AsyncExitStack, run: RunState, attachments:
             out.mkdir(parents=True, exist_ok=True)
             run.recorder = run_setup.start_recorder(
                 stack, lambda path: ProcessRecorder(path, run_start_unix_ns=run_start_unix_ns, metadata=meta,
-                                                    attachments=files),
+                                                    attachments=files, live=live,
+                                                    duration_ns=run.duration_ns),
                 log_path or default_log_path(out, rig, scenario, run.seed), unique=log_path is None)
     # The criteria read the run's signals as they stream (a delay line longer than the oldest
     # stamp a telemetry frame may carry), so no sample is kept for the whole run unless asked.
@@ -224,6 +230,9 @@ async def _acquire(stack: contextlib.AsyncExitStack, run: RunState, attachments:
     if stream.deferred:
         loop.slack_work = lambda deadline_ns: pump_before(stream, deadline_ns)
     runner.attach_flight(flight)
+    run.steering = attach_live(run.recorder, loop, runner, run.logger, lockstep=run.mode is Mode.LOCKSTEP)
+    if run.steering is not None:
+        stack.callback(run.steering.close)  # idempotent: the flight's own end closes it first
 
 
 async def _fly_and_finish(run: RunState, rt: Any, wake: Any, hog: CpuHog, *, keep_run_dir: bool) -> RunResult:
@@ -280,6 +289,8 @@ async def _fly_and_finish(run: RunState, rt: Any, wake: Any, hog: CpuHog, *, kee
         end, message = EndReason.INTERRUPTED, f"interrupted by {type(exc).__name__}: {exc}"
         raise
     finally:
+        if run.steering is not None:
+            run.steering.close()  # a gate still paused lets the teardown go on
         steal_ms = steal.stop()  # the tick loop's, before the teardown
         fc_cpu_ns, rec_cpu_ns = fc_cpu.stop(), rec_cpu.stop()
         rt.__exit__(None, None, None)

@@ -18,6 +18,7 @@ from hil.flight.run_setup import VirtualTimeRequired
 from hil.flight.runlog import RunLogger
 from hil.flight.scenario_runner import ScenarioRunner
 from hil.flight.tickloop import Mode, TickLoop
+from hil.live.steer import Steering
 from hil.record.process import ProcessRecorder
 from hil.transport.base import Port
 from hil.vtime.session import VirtualTime
@@ -52,6 +53,7 @@ class RunState:
     #: --require-virtual-time: a fallback to the host clock is an error, not a note
     require_vt: bool = False
     vt_refused: VirtualTimeRequired | None = None
+    steering: Steering | None = None  #: --live: the app's pause, step, speed and injects
 
     def note(self, text: str) -> None:
         self.notes.append(text)

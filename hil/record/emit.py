@@ -14,7 +14,7 @@ from __future__ import annotations
 import os
 import queue
 import threading
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from mcap.data_stream import RecordBuilder
@@ -85,6 +85,8 @@ class MessageEmitter:
     _chunk_messages: int
     _latest_t_ns: int
     _swept_t_ns: int
+    #: (topic, log_time, message bytes) of every message written: the live server (hil/live)
+    mirror: Callable[[str, int, bytes], None] | None = None
 
     # ---- writer thread ---------------------------------------------------------------------
     def _run(self) -> None:
@@ -231,6 +233,8 @@ class MessageEmitter:
             self._writer.flush()  # finish the chunk before it would pass chunk_size (mcap closes it after)
             self._chunk_bytes = self._chunk_messages = 0
         self._writer.add_message(route.channel_id, log_time, data, publish_time, route.seq & 0xFFFFFFFF)
+        if self.mirror is not None:
+            self.mirror(spec.topic, log_time, data)
         self._chunk_bytes += size
         self._chunk_messages += 1
         route.seq += 1

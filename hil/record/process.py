@@ -27,10 +27,13 @@ import signal
 import struct
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from hil.record.topics import topic_spec, wire_topic
 from hil.record.writer import Recorder, RecordStats
+
+if TYPE_CHECKING:
+    from hil.live.topics import LiveConfig
 
 _LEN = struct.Struct("<I")
 _BATCH = 0
@@ -61,24 +64,40 @@ def _read_exact(fd: int, n: int) -> bytes | None:
     return b"".join(chunks)
 
 
-def _child(cmd_fd: int, result_fd: int, path: Path, kwargs: dict[str, Any]) -> None:
-    """The child process: a Recorder fed from the command pipe."""
+def _close_others(keep: tuple[int, ...]) -> None:
+    """Close every fd from 3 up but ``keep``: the bench's ptys and files are none of ours."""
+    low = 3
+    for fd in sorted(keep):
+        os.closerange(low, fd)
+        low = fd + 1
+    os.closerange(low, 65536)
+
+
+def _child(cmd_fd: int, result_fd: int, path: Path, kwargs: dict[str, Any], live: LiveConfig | None = None,
+           steer_fd: int = -1, end_unix_ns: int = 0) -> None:
+    """The child process: a Recorder fed from the command pipe (and the live server beside it)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the bench's to handle
     try:
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
     except OSError:
         pass
-    os.closerange(3, cmd_fd)  # the bench's ptys and files are none of ours
-    os.closerange(cmd_fd + 1, result_fd)
-    os.closerange(result_fd + 1, 65536)
+    _close_others((cmd_fd, result_fd, steer_fd) if live is not None else (cmd_fd, result_fd))
     rec = Recorder(path, **kwargs, writer_thread=False)  # this process only records
     error = ""
+    server = None
     try:
         rec.start()
+        if live is not None:
+            from hil.live.server import LiveServer
+
+            server = LiveServer(live, run_start_unix_ns=kwargs["run_start_unix_ns"], end_unix_ns=end_unix_ns,
+                                steer_fd=steer_fd)
+            port = server.start()
+            rec.mirror = server.mirror
     except BaseException as exc:  # reported to the parent, which raises it
         _write_all(result_fd, pickle.dumps(("error", repr(exc))))
         os._exit(1)
-    _write_all(result_fd, pickle.dumps(("started", "")))
+    _write_all(result_fd, pickle.dumps(("started", port if server is not None else 0)))
     final: dict[str, str] | None = None
     while True:
         head = _read_exact(cmd_fd, _LEN.size)
@@ -105,6 +124,8 @@ def _child(cmd_fd: int, result_fd: int, path: Path, kwargs: dict[str, Any]) -> N
         _write_all(result_fd, pickle.dumps(("stats", stats)))
     except BaseException as exc:
         _write_all(result_fd, pickle.dumps(("error", repr(exc))))
+    if server is not None:
+        server.close()
     os._exit(0)
 
 
@@ -151,6 +172,8 @@ class ProcessRecorder:
         chunk_size: int = 65536,
         queue_max: int = 200_000,
         backlog_max: int = 64 << 20,
+        live: LiveConfig | None = None,
+        duration_ns: int = 0,
     ) -> None:
         from hil.record.topics import TOPICS
 
@@ -174,6 +197,12 @@ class ProcessRecorder:
         self._stats: RecordStats | None = None
         self.dropped = 0  #: batches that could not be handed to the child (it died)
         self._single = ProcessBatch(self)
+        #: ``hil run --live``: the live server's settings; its port once started, and the
+        #: read end of the pipe its app commands come on (hil/live/steer.py reads it)
+        self.live = live
+        self.live_port = 0
+        self.steer_fd = -1
+        self._end_unix_ns = run_start_unix_ns + max(duration_ns, 0)
 
     @property
     def pid(self) -> int | None:
@@ -184,21 +213,27 @@ class ProcessRecorder:
     def start(self) -> None:
         cmd_r, cmd_w = os.pipe()
         res_r, res_w = os.pipe()
+        steer_r, steer_w = os.pipe() if self.live is not None else (-1, -1)
         pid = os.fork()
         if pid == 0:  # pragma: no cover - the child (exits via os._exit)
             try:
                 os.close(cmd_w)
                 os.close(res_r)
-                _child(cmd_r, res_w, self.path, self._kwargs)
+                _child(cmd_r, res_w, self.path, self._kwargs, self.live, steer_w, self._end_unix_ns)
             finally:
                 os._exit(1)
         os.close(cmd_r)
         os.close(res_w)
-        self._pid, self._cmd_fd, self._result_fd = pid, cmd_w, res_r
+        if steer_w >= 0:
+            os.close(steer_w)
+        self._pid, self._cmd_fd, self._result_fd, self.steer_fd = pid, cmd_w, res_r, steer_r
         kind, detail = self._result()
         if kind != "started":
             self._reap()
+            if steer_r >= 0:
+                os.close(steer_r)
             raise OSError(f"recorder process could not start {self.path}: {detail}")
+        self.live_port = int(detail or 0)
         try:
             fcntl.fcntl(cmd_w, F_SETPIPE_SZ, PIPE_BYTES)
         except OSError:

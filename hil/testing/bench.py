@@ -30,7 +30,7 @@ class Bench(BenchActions):
         self._task = loop.create_task(run_flight_async(
             self.rig, self.scenario, mode=Mode(self.mode), seed=self.seed, duration_s=self.duration_s,
             out_dir=self.log_path.parent, log_path=self.log_path, on_ready=self._on_ready,
-            scenario_source=self.source, keep_trace=True), name=f"hil-bench {self.log_path.stem}")
+            scenario_source=self.source, keep_trace=True, live=self.live), name=f"hil-bench {self.log_path.stem}")
         self._task.add_done_callback(self._run_done)
         if self._test_task is not None:
             self._test_task.add_done_callback(lambda _: self._gate_open.set())

@@ -15,6 +15,7 @@ from hil.testing.records import HilBenchStallWarning
 from hil.testing.scenario import build_scenario
 
 if TYPE_CHECKING:
+    from hil.live.topics import LiveConfig
     from hil.config.rig import Rig
     from hil.config.scenario import Scenario
     from hil.testing.bench import Bench
@@ -29,8 +30,10 @@ class HilBench:
     """The ``hil_bench`` fixture: starts benches for one test, stops them at teardown."""
 
     def __init__(self, nodeid: str, name: str, *, keep_dir: Path, keep_all: bool = False,
-                 require_virtual_time: bool = False) -> None:
+                 require_virtual_time: bool = False,
+                 live: LiveConfig | None = None) -> None:
         self.nodeid, self.name = nodeid, name
+        self.live = live  #: --hil-live: every bench served to Foxglove (docs/live.md)
         self.keep_dir, self.keep_all = keep_dir, keep_all
         #: --hil-require-virtual-time: every bench's rig gets [flight] require_virtual_time = true
         self.require_virtual_time = require_virtual_time
@@ -67,6 +70,7 @@ class HilBench:
             self._tmp = Path(tempfile.mkdtemp(prefix="hil-pytest-"))
         bench = Bench(rig_obj, scen, source=source, seed=seed, duration_s=duration_s, mode=mode,
                       log_path=self._tmp / f"{self._stem(len(self.benches))}.mcap", faults=faults)
+        bench.live = self.live
         self.benches.append(bench)
         bench.log_path.parent.mkdir(parents=True, exist_ok=True)
         await bench._start()

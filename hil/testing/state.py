@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 from hil.testing.records import S, EscCommand, Predicate
 
 if TYPE_CHECKING:
+    from hil.live.topics import LiveConfig
     from emulators.base import DeviceEvent
     from emulators.xsens.events import SampleSent
     from hil.config.rig import Rig
@@ -47,6 +48,7 @@ class BenchState:
         self.seed = scenario.scenario.seed if seed is None else seed
         self.duration_s = scenario.scenario.duration_s if duration_s is None else duration_s
         self.mode, self.log_path = mode, log_path
+        self.live: LiveConfig | None = None  #: serve the run to Foxglove (the plugin's --hil-live)
         self.loop: TickLoop | None = None
         self.devices: DeviceSet | None = None
         self.runner: ScenarioRunner | None = None
