@@ -145,6 +145,10 @@ async def run_flight_async(
         assert loop is not None and run.logger is not None
         if on_ready is not None:
             on_ready(loop, run.devices, run.runner)  # type: ignore[arg-type]
+        # after on_ready: steering chains the tick gate a test may have set
+        run.steering = attach_live(run.recorder, loop, run.runner, run.logger, lockstep=run.mode is Mode.LOCKSTEP)
+        if run.steering is not None:
+            stack.callback(run.steering.close)  # idempotent: the flight's own end closes it first
         if progress is not None:
             duration_ns = run.duration_ns
             run.logger.progress = lambda t_ns: progress(t_ns / 1e9, duration_ns / 1e9, run.runner.phase(t_ns))
@@ -230,9 +234,6 @@ async def _acquire(stack: contextlib.AsyncExitStack, run: RunState, attachments:
     if stream.deferred:
         loop.slack_work = lambda deadline_ns: pump_before(stream, deadline_ns)
     runner.attach_flight(flight)
-    run.steering = attach_live(run.recorder, loop, runner, run.logger, lockstep=run.mode is Mode.LOCKSTEP)
-    if run.steering is not None:
-        stack.callback(run.steering.close)  # idempotent: the flight's own end closes it first
 
 
 async def _fly_and_finish(run: RunState, rt: Any, wake: Any, hog: CpuHog, *, keep_run_dir: bool) -> RunResult:
