@@ -1,8 +1,9 @@
 """Deliberately broken copies of the flight code, flown as a rig's ``[flight] command``.
 
 Each variant is one small edit of a copy of flightcode/ (the project's tree is never edited):
-``build_rig`` copies the tree, applies the edit (its anchor must occur exactly once), and
-writes a rig whose flight command runs that copy.
+``build_rig`` copies the tree, applies the edit (its anchor must occur exactly once in the
+whole tree, so a file split does not break it), and writes a rig whose flight command runs
+that copy.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
 @dataclass(frozen=True)
 class Variant:
     name: str
-    path: str  #: file in flightcode/, relative to the repository
+    where: str  #: what the edit touches (for people; the anchor finds the file)
     anchor: str  #: text replaced (must occur exactly once)
     replacement: str
     scenario: str  #: the scenario that must fail
@@ -28,7 +29,7 @@ class Variant:
 
 VARIANTS = [
     Variant(
-        "altitude setpoint clamped at 3 m", "flightcode/loop.py",
+        "altitude setpoint clamped at 3 m", "stick to altitude setpoint",
         "z = alt_range if z > alt_range else 0.0 if z < 0.0 else z",
         "z = 3.0 if z > 3.0 else 0.0 if z < 0.0 else z",
         "altitude-step",
@@ -37,7 +38,7 @@ VARIANTS = [
         "a 5 m climb command stops at 3 m",
     ),
     Variant(
-        "ADC driver stops reading after its first failed read", "flightcode/drivers/mcp3204.py",
+        "ADC driver stops reading after its first failed read", "MCP3204 driver",
         "        bridge = self.bridge\n        sent = bridge.counters[\"requests\"]\n",
         "        if self.counters[\"failed_reads\"]:\n            return None\n"
         "        bridge = self.bridge\n        sent = bridge.counters[\"requests\"]\n",
@@ -47,7 +48,7 @@ VARIANTS = [
         "after one line glitch the barometer and accelerometer are never read again",
     ),
     Variant(
-        "IMU driver takes any SampleTimeFine for real", "flightcode/drivers/xsens.py",
+        "IMU driver takes any SampleTimeFine for real", "XSENS driver",
         "MAX_TIME_SLIP_PERIODS = 4\n", "MAX_TIME_SLIP_PERIODS = 10**9\n",
         "fault-imu-bit-errors",
         frozenset({"the sample clock never runs ahead: telemetry t_s <= 20.1 s"}),
@@ -65,13 +66,16 @@ sys.exit(main())
 """
 
 
-def apply(tree: Path, variant: Variant) -> None:
-    """Apply ``variant``'s edit to the copy at ``tree``."""
-    target = tree / variant.path
-    text = target.read_text()
-    if text.count(variant.anchor) != 1:
-        raise ValueError(f"{variant.name}: anchor found {text.count(variant.anchor)} times in {variant.path}")
+def apply(tree: Path, variant: Variant) -> Path:
+    """Apply ``variant``'s edit to the copy at ``tree``; returns the file edited."""
+    hits = [(p, p.read_text()) for p in sorted((tree / "flightcode").rglob("*.py"))]
+    hits = [(p, text) for p, text in hits if variant.anchor in text]
+    count = sum(text.count(variant.anchor) for _, text in hits)
+    if count != 1:
+        raise ValueError(f"{variant.name}: anchor found {count} times in flightcode/")
+    target, text = hits[0]
     target.write_text(text.replace(variant.anchor, variant.replacement))
+    return target
 
 
 def build_rig(tmp_path: Path, variant: Variant | None) -> Path:
