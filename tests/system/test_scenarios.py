@@ -170,18 +170,28 @@ async def test_hover_that_never_took_off_fails(tmp_path: Path) -> None:
     assert not result.passed
 
 
-async def test_altitude_step_settles_on_the_seed_that_used_to_swing_out(fly) -> None:
-    """Issue 13: with the docs/controllers.md 3.2 LQI weights the rotors' inflow damping made the
-    altitude loop slow and underdamped; seed 3 swung back out of the +-5 % band and settled
-    only 10.2 s after the step (seed 5: 11.1 s). With the rig's weights (rigs/paper-quad.toml
-    [flight.overrides.altitude]) it settles in about 5 s (5.5 s measured) with about 0.5 m
-    of overshoot, as the paper's Fig. 9. The shipped scenario's own seed (1) runs above."""
+async def test_altitude_step_on_the_seed_that_used_to_swing_out(fly) -> None:
+    """With the docs/controllers.md 3.2 LQI weights the rotors' inflow damping made the altitude
+    loop slow and underdamped: seed 3 swung back out of the +-5 % band. With the rig's weights
+    (rigs/paper-quad.toml [flight.overrides.altitude]) it overshoots about 0.5 m, as the paper's
+    Fig. 9, and rises within the bound. Its settling is a finding of the commanded-step verdict:
+    see the next test."""
+    result = await fly("altitude-step", seed=3)
+    assert result.end_reason is EndReason.COMPLETED, explain(result)
+    by_name = {c.name: c for c in result.criteria}
+    overshoot = by_name["overshoot over pre-step + 5 m: reaches the step, at most 1 m over"]
+    assert overshoot.passed and 0.2 <= overshoot.value <= 0.8, explain(result)
+    assert by_name["rise time (10-90 % of the commanded 5 m)"].passed, explain(result)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "finding: on seed 3 the flight code's altitude loop takes 10.0 s to stay within +-5 % of the "
+    "commanded pre-step + 5 m (9 s allowed; seed 1: 4.7 s); the verdict that judged the level "
+    "reached passed it at 5.5 s (docs/scenarios.md, Gaps)"))
+async def test_altitude_step_settles_on_seed_3(fly) -> None:
     result = await fly("altitude-step", seed=3)
     assert result.end_reason is EndReason.COMPLETED, explain(result)
     assert result.passed, explain(result)
-    by_name = {c.name: c.value for c in result.criteria}
-    assert by_name["settles within +-5 % of the step"] <= 7.0, explain(result)
-    assert 0.2 <= by_name["overshoot about 0.5 m over pre-step + 5 m"] <= 0.8, explain(result)
 
 
 async def test_payload_barely_changes_tracking_on_twin_runs(tmp_path: Path) -> None:
