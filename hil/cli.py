@@ -24,6 +24,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from hil.live.options import LiveAddrOpt, LiveOpt, LiveTopicsOpt, live_config
+from hil.fleet.mutation import command as mutation_command
 
 app = typer.Typer(
     help="Hardware-in-the-loop bench for the Wang/Ma/Sun quad-rotor MAV. "
@@ -387,7 +388,7 @@ def fidelity(
     console.print(f"wrote {docs / 'fidelity.md'}: {'every row passes' if ok else 'some rows FAIL'}")
     raise typer.Exit(0 if ok else 1)
 
-app.command(name="mutate")(__import__("hil.cli_mutate", fromlist=["mutate"]).mutate)  # hil/cli_mutate.py
+app.command(name="mutate")(mutation_command.mutate)  # hil/fleet/mutation/command.py
 
 
 def main() -> None:  # pragma: no cover - console entry

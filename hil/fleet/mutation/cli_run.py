@@ -1,4 +1,4 @@
-"""What ``hil mutate`` does once its options are parsed (hil/cli_mutate.py)."""
+"""What ``hil mutate`` does once its options are parsed (hil/fleet/mutation/command.py)."""
 
 from __future__ import annotations
 
