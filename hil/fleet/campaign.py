@@ -57,7 +57,8 @@ class CampaignRun:
         return not s["interrupted"] and s["failed"] == 0 and s["passed"] == s["cases"]
 
 
-def _campaign_dir(out: Path, name: str) -> Path:
+def campaign_dir(out: Path, name: str) -> Path:
+    """A new directory ``out/<name>-<UTC stamp>[-n]`` (created; never one that exists)."""
     stamp = datetime.datetime.fromtimestamp(clock.wall_ns() / 1e9, tz=datetime.UTC).strftime("%Y%m%dT%H%M%S")
     for n in itertools.count():
         d = out / (f"{name}-{stamp}" + (f"-{n}" if n else ""))
@@ -92,7 +93,7 @@ def run_campaign(
     use_dask = executor == "dask" or bool(scheduler) or (executor == "auto" and dask_available())
     if use_dask and not dask_available():
         raise ConfigError("Dask is not installed: pip install 'mav-hil-bench[campaign]' (or use the process pool)")
-    cdir = _campaign_dir(out_dir or campaign.out_dir, campaign.name)
+    cdir = campaign_dir(out_dir or campaign.out_dir, campaign.name)
     shutil.copyfile(campaign.path, cdir / "campaign.toml")
     cases = campaign.cases(cdir, keep_logs=keep_logs)
     where = f"dask {scheduler}" if scheduler else f"dask LocalCluster x{n_workers} (TLS)" if use_dask else f"process pool x{n_workers}"

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import datetime
-import itertools
 import json
 from pathlib import Path
 from typing import Any
@@ -12,6 +10,7 @@ from rich.console import Console
 
 from hil import clock
 from hil.config import ConfigError
+from hil.fleet.campaign import campaign_dir
 from hil.fleet.campaign_case import finite
 from hil.fleet.mutation import report as rep
 from hil.fleet.mutation.catalogue import load_catalogue, load_equivalents
@@ -31,18 +30,6 @@ from hil.fleet.mutation.runner import (
 
 _MODES = ("lockstep", "realtime")
 _EXECUTORS = ("auto", "dask", "process")
-
-
-def _out_dir(out: Path, name: str) -> Path:
-    stamp = datetime.datetime.fromtimestamp(clock.wall_ns() / 1e9, tz=datetime.UTC).strftime("%Y%m%dT%H%M%S")
-    for n in itertools.count():
-        d = out / (f"mutate-{name}-{stamp}" + (f"-{n}" if n else ""))
-        try:
-            d.mkdir(parents=True)
-            return d
-        except FileExistsError:
-            continue
-    raise AssertionError("unreachable")
 
 
 def _plan(o: dict[str, Any]) -> tuple[Plan, dict[str, str], str]:
@@ -99,7 +86,7 @@ def run(o: dict[str, Any], console: Console | None = None) -> int:
     except ConfigError as exc:
         out.print(f"error: {exc}", highlight=False, markup=False)
         return 2
-    cdir = _out_dir(o["out"], name)
+    cdir = campaign_dir(o["out"], f"mutate-{name}")
     stop_file = cdir / "STOP"
     out.print(f"hil mutate {name}: {len(plan.mutants)} mutants x {len(plan.suite.scenarios)} scenarios "
               f"(excluded: {', '.join(plan.suite.excluded) or 'none'}) on {where(plan)} -> {cdir}", highlight=False)
