@@ -13,6 +13,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from tests.system.conftest import rig_with_command
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -86,18 +88,7 @@ def build_rig(tmp_path: Path, variant: Variant | None) -> Path:
         apply(tree, variant)
     runner = tmp_path / "run_copy.py"
     runner.write_text(_RUNNER.format(tree=str(tree)))
-    text = (ROOT / "rigs" / "paper-quad.toml").read_text()
-    lines = []
-    for line in text.splitlines():
-        if line.startswith("command = "):
-            line = f'command = ["{{python}}", "{runner}", "{{config}}"]'
-        elif line.startswith("config = "):
-            line = f'config = "{ROOT / "rigs" / "flightcode-paper-quad.toml"}"'
-        lines.append(line)
-    rig = tmp_path / "broken-rig.toml"
-    rig.write_text("\n".join(lines) + "\n")
-    (tmp_path / "scenarios").mkdir(exist_ok=True)
-    return rig
+    return rig_with_command(tmp_path, ["{python}", str(runner), "{config}"], "broken-rig")
 
 
 if __name__ == "__main__":  # python -m tests.system.broken_flightcode OUT_DIR INDEX: build one rig

@@ -56,3 +56,21 @@ def fly(tmp_path: Path):
         return await run_flight_async(rig_obj, load_scenario(source), scenario_source=source, **kwargs)
 
     return _fly
+
+
+def rig_with_command(tmp_path: Path, command: list[str], name: str) -> Path:
+    """A copy of the default rig, written as ``tmp_path/<name>.toml``, whose flight command is
+    ``command`` (its ``{python}``/``{config}`` placeholders as in a rig) with the default config."""
+    root = Path(__file__).resolve().parents[2]
+    quoted = ", ".join(f'"{part}"' for part in command)
+    lines = []
+    for line in (root / "rigs" / "paper-quad.toml").read_text().splitlines():
+        if line.startswith("command = "):
+            line = f"command = [{quoted}]"
+        elif line.startswith("config = "):
+            line = f'config = "{root / "rigs" / "flightcode-paper-quad.toml"}"'
+        lines.append(line)
+    rig = tmp_path / f"{name}.toml"
+    rig.write_text("\n".join(lines) + "\n")
+    (tmp_path / "scenarios").mkdir(exist_ok=True)
+    return rig

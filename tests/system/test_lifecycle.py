@@ -14,31 +14,14 @@ import pytest
 
 from hil.flight.tickloop import EndReason
 from hil.record import TornRecordingError, message_counts, read_metadata, read_topic
-from tests.system.conftest import explain
+from tests.system.conftest import explain, rig_with_command
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _rig_with_command(tmp_path: Path, command: list[str]) -> Path:
-    """A copy of the default rig whose flight command is ``command``."""
-    text = (ROOT / "rigs" / "paper-quad.toml").read_text()
-    quoted = ", ".join(f'"{part}"' for part in command)
-    lines = []
-    for line in text.splitlines():
-        if line.startswith("command = "):
-            line = f"command = [{quoted}]"
-        elif line.startswith("config = "):
-            line = f'config = "{ROOT / "rigs" / "flightcode-paper-quad.toml"}"'
-        lines.append(line)
-    rig = tmp_path / "crash-rig.toml"
-    rig.write_text("\n".join(lines) + "\n")
-    (tmp_path / "scenarios").mkdir(exist_ok=True)
-    return rig
-
-
 async def test_flight_code_crash_ends_the_run_with_its_status(fly, tmp_path: Path) -> None:
-    rig = _rig_with_command(tmp_path, ["{python}", str(ROOT / "tests" / "system" / "crashing_flight.py"), "{config}"])
+    rig = rig_with_command(tmp_path, ["{python}", str(ROOT / "tests" / "system" / "crashing_flight.py"), "{config}"], "crash-rig")
     result = await fly("hover", rig=str(rig))
     assert result.end_reason is EndReason.FLIGHT_EXITED, explain(result)
     assert result.flight_returncode == 7
@@ -53,7 +36,7 @@ async def test_flight_code_crash_ends_the_run_with_its_status(fly, tmp_path: Pat
 
 async def test_flight_code_that_never_configures_fails_boot_naming_the_device(fly, tmp_path: Path) -> None:
     # A "flight code" that opens nothing and waits: the bench must give up and say which device.
-    rig = _rig_with_command(tmp_path, ["{python}", "-c", "import time; time.sleep(60)"])
+    rig = rig_with_command(tmp_path, ["{python}", "-c", "import time; time.sleep(60)"], "crash-rig")
     text = rig.read_text().replace("boot_timeout_s = 20.0", "boot_timeout_s = 1.0")
     rig.write_text(text)
     result = await fly("hover", rig=str(rig))
