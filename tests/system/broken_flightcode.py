@@ -58,6 +58,25 @@ VARIANTS = [
     ),
 ]
 
+
+def _from_catalogue(mutant_id: str, scenario: str, criteria: set[str]) -> Variant:
+    """A variant whose edit is the mutation catalogue's (rigs/mutation/flightcode.toml), so
+    that the edit is written once."""
+    from hil.config import RIGS_DIR
+    from hil.fleet.mutation.catalogue import load_catalogue
+
+    m = next(m for m in load_catalogue(RIGS_DIR / "mutation" / "flightcode.toml").mutant if m.id == mutant_id)
+    return Variant(m.id, m.file, m.old, m.new, scenario, frozenset(criteria), m.effect)
+
+
+VARIANTS += [
+    _from_catalogue("mod-no-auto-disarm", "arm-idle", {"disarmed by itself: motors stopped by 8.5 s"}),
+    _from_catalogue("tel-rate-halved", "arm-idle", {"telemetry at 50 Hz: >= 380 frames sent in 8 s"}),
+    _from_catalogue("drv-ppm-crc-ignored", "fault-rc-bit-errors", {
+        "the altitude setpoint stays at the pilot's 2 m (within 0.1 m)", "roll within 3 deg through it",
+        "pitch within 3 deg through it"}),
+]
+
 #: runs the copied flight code: its tree first on sys.path, then flightcode's own main
 _RUNNER = """import sys
 sys.path.insert(0, {tree!r})
