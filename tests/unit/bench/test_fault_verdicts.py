@@ -53,7 +53,8 @@ def _failed(t_s: float) -> float:
 
 
 def _baro(t_s: float, good_m: float) -> float:
-    return math.nan if 10.0 <= t_s < 11.5 else good_m
+    """No altitude while the ADC answers garbage, then the readings again."""
+    return math.nan if _in_fault(t_s) else good_m
 
 
 FLIGHTS = {
@@ -65,6 +66,9 @@ FLIGHTS = {
     # never noticed the garbage: the count is the 2 at boot throughout
     "never saw it": (_good_reads, lambda t: 2.0, _baro),
     # read again, but the baro altitude came back 1 m off (a reference lost in the resync)
+    # took the garbage as a pressure: the baro altitude jumps 30 m for a moment in the fault
+    "took a corrupted reading": (_good_reads, _failed,
+                                 lambda t, m: m + 30.0 if 10.2 <= t < 10.3 else _baro(t, m)),
     "baro off after": (_good_reads, _failed, lambda t, m: math.nan if 10.0 <= t < 11.5 else (m + 1.0 if t >= 11.5 else m)),
 }
 
@@ -91,3 +95,10 @@ def test_the_reaction_is_judged_within_the_window_not_since_boot() -> None:
     (seen,) = evaluate([saw], _flight(*FLIGHTS["recovered"]))
     assert not never.passed and never.value == 0.0
     assert seen.passed and seen.value == 3.0
+
+
+def test_a_corrupted_reading_taken_fails_only_the_baro_criterion() -> None:
+    """A driver that reads again but fused one garbage pressure fails on the altitude, nothing else."""
+    results = evaluate(_adc_criteria(), _flight(*FLIGHTS["took a corrupted reading"]))
+    assert [r.name for r in results if not r.passed] == [
+        "no corrupted reading taken: barometric altitude within 2 m of truth during the fault"]

@@ -98,7 +98,7 @@ def test_bad_input_exits_2_before_flying(tmp_path: Path, monkeypatch: pytest.Mon
 def test_suite_excludes_and_orders_shortest_first() -> None:
     suite = runner.load_suite(ROOT / "rigs" / "paper-quad.toml", [SCEN], ["paper-literal-weights"])
     names = [s.stem for s in suite.scenarios]
-    assert "paper-literal-weights" not in names and names[0] == "fault-imu-silence" and len(names) >= 12
+    assert "paper-literal-weights" not in names and names[0] == "arm-idle" and len(names) >= 12
     with pytest.raises(ConfigError, match="empty"):
         runner.load_suite(ROOT / "rigs" / "paper-quad.toml", [SCEN / "hover.toml"], ["hover"])
 
