@@ -130,12 +130,13 @@ async def serve_devices(
         _stop_on_sigint(stack)
         if on_ready is not None:
             on_ready({name: port.path for name, port in ports.items()})
-        end = "stopped (--duration)"
+        end = "error"
         try:
             with wake as held, rt as got:
                 console.print(f"  scheduling: {got.describe()}; {held.describe()}", soft_wrap=True, highlight=False,
                               markup=False)
                 await loop.run()
+            end = "stopped (--duration)"
         except asyncio.CancelledError:
             end = "stopped (Ctrl-C)"
             console.print("stopped")
@@ -144,7 +145,7 @@ async def serve_devices(
             if recorder is not None and logger is not None:
                 logger.out.flush()  # type: ignore[union-attr]
                 with contextlib.suppress(OSError):  # the log is removed with the run directory
-                    recorder.close({"status": "stopped", "end_reason": end})
+                    recorder.close({"status": "aborted" if end == "error" else "stopped", "end_reason": end})
     return {name: dict(dev.counters) for name, dev in devices.by_port.items()}
 
 
