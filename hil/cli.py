@@ -23,7 +23,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from hil.live.options import LiveAddrOpt, LiveOpt, LiveTopicsOpt, live_config
+from hil.live.options import DevicesLiveOpt, LiveAddrOpt, LiveOpt, LiveTopicsOpt, live_config
 from hil.fleet.mutation import command as mutation_command
 
 app = typer.Typer(
@@ -153,33 +153,31 @@ def devices(
     seed: Annotated[int, typer.Option(help="Seed of the device models.")] = 1,
     duration: Annotated[float | None, typer.Option(help="Stop after this many seconds (default: until Ctrl-C).")] = None,
     attach: Annotated[list[str] | None, typer.Option("--attach", help="PORT=DEVICE: serve this port on a real serial device or URL instead of a pty (/dev/ttyUSB0, socket://host:port, rfc2217://host:port); repeatable.")] = None,
+    live: DevicesLiveOpt = False, live_addr: LiveAddrOpt = None, live_topics: LiveTopicsOpt = None,
 ) -> None:
     """Bring the emulated devices up on ptys and print their paths, streaming in real time.
 
     Point any client (the flight code started by hand, miniterm, an Xbus tool) at the
     printed paths. The plant flies on the ESC commands the Maestro receives. Ctrl-C stops.
     With --attach (or the rig's [ports] tables) a port is served on a real serial device
-    instead, for a flight-controller board wired through a USB-serial adapter.
+    instead, for a flight-controller board wired through a USB-serial adapter. With --live
+    they are served to Foxglove with a run's topics (docs/live.md): prints the URL; takes
+    /hil/inject faults; refuses pause, step and speed (real time).
 
-    Exit status: 0 stopped (Ctrl-C or --duration); 2 bad input (rig, scenario, --attach, a
-    serial device missing, busy or not permitted): nothing was started.
+    Exit status: 0 stopped (Ctrl-C or --duration); 1 a resource could not be had (released);
+    2 bad input (rig, scenario, an option, a serial device missing, busy or not permitted).
     """
-    import asyncio
-
+    live_cfg = live_config(live, live_addr, live_topics)
     from hil.config import ConfigError
-    from hil.config.attach import parse_attach_flags
-    from hil.flight.devices_live import serve_devices
-    from hil.config.rig import load_rig
-    from hil.config.scenario import load_scenario
+    from hil.flight import devices_live, run_setup
 
     try:
-        rig_obj = load_rig(rig)
-        scenario_obj = load_scenario(rig_obj.scenario_path(scenario))
-        attach_map = parse_attach_flags(attach or [])
-        asyncio.run(serve_devices(rig_obj, scenario_obj, seed=seed, duration_s=duration, console=console,
-                                  attach=attach_map))
+        devices_live.serve_devices_blocking(rig, scenario, seed=seed, duration_s=duration, console=console,
+                                            attach_flags=attach or [], live=live_cfg)
     except ConfigError as exc:  # bad files or flags, or a serial device missing/busy/denied: nothing started
         _fail(str(exc))
+    except run_setup.RunStartError as exc:  # a resource could not be had; what was acquired is released
+        _fail(str(exc), 1)
 
 
 @app.command()

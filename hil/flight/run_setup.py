@@ -65,10 +65,10 @@ def open_serial_lines(stack: contextlib.AsyncExitStack, attachments: Mapping[str
     return attached
 
 
-def make_private_dir(stack: contextlib.AsyncExitStack, rig: Rig, *, keep: bool) -> Path:
-    """The run directory (mode 0700, hil/flight/rundir.py) with its ``dev`` subdirectory;
-    removed by the stack unless ``keep``."""
-    run_dir = make_run_dir(f"hil-{rig.name}-")
+def make_private_dir(stack: contextlib.AsyncExitStack, rig: Rig, *, keep: bool, prefix: str = "hil-") -> Path:
+    """The run directory (mode 0700, hil/flight/rundir.py; named ``<prefix><rig>-...``) with its
+    ``dev`` subdirectory; removed by the stack unless ``keep``."""
+    run_dir = make_run_dir(f"{prefix}{rig.name}-")
     if not keep:
         stack.callback(shutil.rmtree, run_dir, ignore_errors=True)
     (run_dir / "dev").mkdir(mode=0o700)

@@ -1,4 +1,4 @@
-"""The command-line options of ``hil run --live`` (and the pytest plugin's ``--hil-live``):
+"""The command-line options of ``hil run --live``, ``hil devices --live`` (and the pytest plugin's ``--hil-live``):
 parsing the address, the topic set, and the loud warning for a bind beyond loopback."""
 
 from __future__ import annotations
@@ -16,6 +16,10 @@ LOOPBACK = "127.0.0.1:0"
 LiveOpt = Annotated[bool, typer.Option(
     "--live", help="Serve the run to Foxglove as it flies, and take its pause/step/speed and /hil/inject "
                    "(docs/live.md); prints the URL. 127.0.0.1 on a free port unless --live-addr.")]
+DevicesLiveOpt = Annotated[bool, typer.Option(
+    "--live", help="Serve the devices to Foxglove in real time (pose, attitude, motors, events, timing) and take "
+                   "/hil/inject faults; pause/step/speed are refused (realtime). Prints the URL; 127.0.0.1 on a "
+                   "free port unless --live-addr (docs/live.md).")]
 LiveAddrOpt = Annotated[str | None, typer.Option(
     "--live-addr", metavar="HOST:PORT", help="With --live: where the server listens. No authentication: a bind "
                                              "beyond loopback is said loudly (docs/live.md, Security).")]
@@ -81,4 +85,4 @@ def live_config(live: bool, addr: str | None, topics: str | None, *, record: boo
     return None if config is None else announcer(config)
 
 
-__all__ = ["LOOPBACK", "LiveAddrOpt", "LiveOptionError", "LiveOpt", "LiveTopicsOpt", "announcer", "live_config", "parse_live"]
+__all__ = ["DevicesLiveOpt", "LOOPBACK", "LiveAddrOpt", "LiveOptionError", "LiveOpt", "LiveTopicsOpt", "announcer", "live_config", "parse_live"]

@@ -238,7 +238,7 @@ def attach_live(recorder: Any, loop: Any, runner: Any, logger: Any, *, lockstep:
     if live.announce is not None:
         live.announce(url)
     out = logger.out
-    steering = Steering(recorder.steer_fd, loop, runner, logger.event, lockstep=lockstep,
+    steering = Steering(recorder.take_steer_fd(), loop, runner, logger.event, lockstep=lockstep,
                         flush=out.flush if out is not None else lambda: None)
     steering.attach()
     return steering

@@ -198,7 +198,8 @@ class ProcessRecorder:
         self.dropped = 0  #: batches that could not be handed to the child (it died)
         self._single = ProcessBatch(self)
         #: ``hil run --live``: the live server's settings; its port once started, and the
-        #: read end of the pipe its app commands come on (hil/live/steer.py reads it)
+        #: read end of the pipe its app commands come on (hil/live/steer.py takes it with
+        #: :meth:`take_steer_fd`; closed here if no one did)
         self.live = live
         self.live_port = 0
         self.steer_fd = -1
@@ -230,8 +231,7 @@ class ProcessRecorder:
         kind, detail = self._result()
         if kind != "started":
             self._reap()
-            if steer_r >= 0:
-                os.close(steer_r)
+            self._close_steer()
             raise OSError(f"recorder process could not start {self.path}: {detail}")
         self.live_port = int(detail or 0)
         try:
@@ -260,6 +260,16 @@ class ProcessRecorder:
             except ChildProcessError:
                 pass
             self._pid = None
+
+    def take_steer_fd(self) -> int:
+        """The steering pipe's read end, now the caller's to close (-1: none, or taken)."""
+        fd, self.steer_fd = self.steer_fd, -1
+        return fd
+
+    def _close_steer(self) -> None:
+        if self.steer_fd >= 0:
+            os.close(self.steer_fd)
+            self.steer_fd = -1
 
     # -- tick path --------------------------------------------------------------------------------
     def batch(self) -> ProcessBatch:
@@ -337,6 +347,7 @@ class ProcessRecorder:
     # -- end --------------------------------------------------------------------------------------
     def close(self, final_metadata: dict[str, str] | None = None) -> RecordStats:
         """Hand over what is queued, close the recording in the child, return its stats."""
+        self._close_steer()  # a steering pipe no one took (the run ended before its steering began)
         if self._stats is not None:
             return self._stats
         if self._pid is None:

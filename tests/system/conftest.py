@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import os
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import psutil
 import pytest
 
 from hil.flight.tickloop import Mode
@@ -74,3 +77,36 @@ def rig_with_command(tmp_path: Path, command: list[str], name: str) -> Path:
     rig.write_text("\n".join(lines) + "\n")
     (tmp_path / "scenarios").mkdir(exist_ok=True)
     return rig
+
+
+def _fds() -> set[str]:
+    return {f"{fd} -> {os.readlink(f'/proc/self/fd/{fd}')}" for fd in os.listdir("/proc/self/fd")
+            if os.path.exists(f"/proc/self/fd/{fd}")}
+
+
+def _children() -> list[int]:
+    return [p.pid for p in psutil.Process().children(recursive=True)]
+
+
+@pytest.fixture
+def clean_slate(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
+    """Run directories go to a private temp root; returns a check that nothing was left since
+    the check was made (called first in the test's coroutine: the event loop's own descriptors
+    exist by then)."""
+    root = tmp_path / "tmp"
+    root.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(root))
+    before_fds: set[str] = set()
+    before_children: list[int] = []
+
+    def nothing_left(out: Path | None = None) -> None:
+        if out is None:
+            before_fds.update(_fds())
+            before_children.extend(_children())
+            return
+        assert _children() == before_children
+        assert _fds() == before_fds
+        assert list(root.iterdir()) == []
+        assert not list(out.glob("*.part")) and not list(out.glob(".*"))
+
+    return nothing_left

@@ -5,11 +5,8 @@ share a log name."""
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
-import psutil
 import pytest
 
 import hil.flight.run
@@ -18,8 +15,9 @@ from hil.config.scenario import load_scenario
 from hil.flight import run_setup
 from hil.flight.run import RunStartError, run_flight_async
 from hil.flight.tickloop import EndReason
+from hil.live.topics import LiveConfig
 from hil.record import read_metadata
-from tests.system.conftest import explain
+from tests.system.conftest import explain  # clean_slate: a fixture of tests/system/conftest.py
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
 
@@ -33,39 +31,6 @@ STEPS = [
     ("open_virtual_time", "setting up virtual time"),
     ("make_flight", "preparing the flight code's process"),
 ]
-
-
-def _fds() -> set[str]:
-    return {f"{fd} -> {os.readlink(f'/proc/self/fd/{fd}')}" for fd in os.listdir("/proc/self/fd")
-            if os.path.exists(f"/proc/self/fd/{fd}")}
-
-
-def _children() -> list[int]:
-    return [p.pid for p in psutil.Process().children(recursive=True)]
-
-
-@pytest.fixture
-def clean_slate(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
-    """Run directories go to a private temp root; returns a check that nothing was left since
-    the check was made (called first in the test's coroutine: the event loop's own descriptors
-    exist by then)."""
-    root = tmp_path / "tmp"
-    root.mkdir()
-    monkeypatch.setattr(tempfile, "tempdir", str(root))
-    before_fds: set[str] = set()
-    before_children: list[int] = []
-
-    def nothing_left(out: Path | None = None) -> None:
-        if out is None:
-            before_fds.update(_fds())
-            before_children.extend(_children())
-            return
-        assert _children() == before_children
-        assert _fds() == before_fds
-        assert list(root.iterdir()) == []
-        assert not list(out.glob("*.part")) and not list(out.glob(".*"))
-
-    return nothing_left
 
 
 def _load(scenario: str = "hover"):
@@ -97,8 +62,10 @@ async def test_a_failure_at_each_step_leaves_nothing(step: str, words: str, clea
         assert verdict["status"] == "aborted" and f"injected failure at {step}" in verdict["error"]
 
 
-async def test_a_failure_after_the_last_step_leaves_nothing(clean_slate, tmp_path: Path,
+@pytest.mark.parametrize("live", [None, LiveConfig()], ids=["plain", "live"])
+async def test_a_failure_after_the_last_step_leaves_nothing(live: LiveConfig | None, clean_slate, tmp_path: Path,
                                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    """With --live too: the steering pipe the run had not taken yet is closed with the recorder."""
     def injected(*_: object, **__: object) -> None:
         raise RuntimeError("injected failure building the tick loop")
 
@@ -107,7 +74,7 @@ async def test_a_failure_after_the_last_step_leaves_nothing(clean_slate, tmp_pat
     rig, scenario, source = _load()
     out = tmp_path / "logs"
     with pytest.raises(RuntimeError, match="injected failure building the tick loop"):
-        await run_flight_async(rig, scenario, scenario_source=source, duration_s=0.2, out_dir=out)
+        await run_flight_async(rig, scenario, scenario_source=source, duration_s=0.2, out_dir=out, live=live)
     clean_slate(out)
     [log] = out.glob("*.mcap")
     assert read_metadata(log)["verdict"]["status"] == "aborted"
