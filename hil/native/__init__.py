@@ -49,7 +49,8 @@ def describe() -> str:
     s = state()
     if s.why is Why.COMPILED:
         built = datetime.datetime.fromtimestamp(s.built_ns / 1e9, tz=datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
-        return f"compiled (mypyc -O{s.opt_level}, built {built})"
+        grouping = "one extension per module" if s.groups == "modules" else f"--groups {s.groups}"
+        return f"compiled (mypyc -O{s.opt_level}, {grouping}, built {built})"
     reasons = {
         Why.NOT_BUILT: "no compiled build: `hil build` compiles one",
         Why.SWITCHED_OFF: s.detail,

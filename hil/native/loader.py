@@ -59,6 +59,7 @@ class LoadState:
     changed: tuple[str, ...] = ()
     detail: str = ""
     opt_level: str = ""
+    groups: str = ""
     built_ns: int = 0
 
     @property
@@ -122,11 +123,12 @@ def _decide(directory: Path, root: Path) -> tuple[LoadState, manifest_mod.Manife
         return LoadState(directory, Why.OTHER_BUILD, detail=f"{m.interpreter} for {m.root}"), None
     changed = tuple(m.changed_sources())
     if changed:
-        return LoadState(directory, Why.STALE, changed=changed, opt_level=m.opt_level, built_ns=m.built_ns), None
+        return LoadState(directory, Why.STALE, changed=changed, opt_level=m.opt_level, groups=m.groups,
+                         built_ns=m.built_ns), None
     early = sorted(name for name in m.modules if name in sys.modules)
     if early:
         return LoadState(directory, Why.IMPORTED_FIRST, detail=", ".join(early[:3])), None
-    return LoadState(directory, Why.COMPILED, opt_level=m.opt_level, built_ns=m.built_ns), m
+    return LoadState(directory, Why.COMPILED, opt_level=m.opt_level, groups=m.groups, built_ns=m.built_ns), m
 
 
 def stale_message(changed: Sequence[str]) -> str:
