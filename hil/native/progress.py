@@ -93,7 +93,7 @@ class BuildProgress:
 
     def _line(self, text: str) -> None:
         self._last_line = self._now()
-        self._console.print(f"[{self._last_line - self._started:5.0f} s] {text}", highlight=False)
+        self._console.print(f"[{self._last_line - self._started:5.0f} s] {text}", highlight=False, soft_wrap=True)
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
