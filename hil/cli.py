@@ -8,7 +8,7 @@
     hil recover LOG              salvage a killed run's .part file into a valid MCAP
     hil campaign FILE            many runs (Dask)
     hil perf                     benchmarks of this machine and the bench
-    hil build                    compile the device models, the plant and the tick path (optional)
+    hil build [--groups G]       compile the device models, the plant and the tick path (optional)
     hil faults                   the fault catalogue with parameters and units
 """
 

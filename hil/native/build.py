@@ -30,9 +30,10 @@ from hil.native.sources import OPT_LEVELS, project_root, watched_sources
 
 _BUILDING = "building '"
 _LARGEST = "hil-build-largest: "
-#: C lines of one mypyc group that one core compiles per minute at -O3 here (docs/performance.md,
-#: Builds): for the estimate shown while a large group compiles
-C_LINES_PER_MIN = 20_000
+#: C lines of one mypyc group that one core compiles per minute at -O3 on the 2-core machine of
+#: docs/performance.md, Builds (540,000 lines in 6-9 min): for the estimate shown while a large
+#: group compiles, +-30 %
+C_LINES_PER_MIN = 75_000
 
 
 class BuildError(Exception):

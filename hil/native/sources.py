@@ -62,20 +62,18 @@ def module_name(source: str) -> str:
 #: ``hil build --groups``: how the compiled sources are split into mypyc groups. A group is one
 #: C file, compiled by one core; calls between modules of one group stay inside that file.
 #: ``modules``: one group per module, compiled in parallel at -O2 (the default, ~2 min);
-#: ``one``: every module in one group at -O3, the old build (5-9 min on one core); ``tick``: the
-#: plant and the tick path (the compiled modules of ``hil``) in one group, each device model
-#: alone, all at -O3
+#: ``one``: every module in one group at -O3, the old build (5-9 min on one core), the fastest
+#: ticks. Grouping only the plant and the tick path at -O3 was measured too and left out: its
+#: group is half the C, and it stays slower than ``one`` (docs/performance.md, Builds)
 class Grouping(str, enum.Enum):
     MODULES = "modules"
     ONE = "one"
-    TICK = "tick"
 
 
 GROUPINGS = tuple(g.value for g in Grouping)
-OPT_LEVELS = {"modules": "2", "one": "3", "tick": "3"}
+OPT_LEVELS = {"modules": "2", "one": "3"}
 #: the name of the one group's shared library (``hil_native__mypyc``), as the old build had it
 ONE_GROUP = "hil_native"
-TICK_GROUP = "hil_tick"
 
 
 def groups(sources: list[str], grouping: str) -> list[tuple[list[str], str | None]]:
@@ -85,7 +83,4 @@ def groups(sources: list[str], grouping: str) -> list[tuple[list[str], str | Non
         return [([source], None) for source in sources]
     if grouping == "one":
         return [(list(sources), ONE_GROUP)]
-    if grouping == "tick":
-        hot = [s for s in sources if s.startswith("hil/")]
-        return [(hot, TICK_GROUP)] + [([s], None) for s in sources if s not in hot]
     raise ValueError(f"grouping {grouping!r}: expected one of {', '.join(GROUPINGS)}")

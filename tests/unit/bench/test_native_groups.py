@@ -18,7 +18,7 @@ from hil.native import compile as native_compile
 from hil.native import manifest as m
 from hil.native.loader import LoadState, Why, _decide
 from hil.native.progress import LINE_EVERY_S, BuildProgress
-from hil.native.sources import GROUPINGS, ONE_GROUP, OPT_LEVELS, TICK_GROUP, compiled_sources, groups, project_root
+from hil.native.sources import GROUPINGS, ONE_GROUP, OPT_LEVELS, compiled_sources, groups, project_root
 
 ROOT = project_root()
 
@@ -31,15 +31,7 @@ def test_modules_is_one_group_per_source() -> None:
 def test_one_is_every_source_in_one_named_group_at_o3() -> None:
     sources = compiled_sources(ROOT)
     assert groups(sources, "one") == [(sources, ONE_GROUP)]
-    assert OPT_LEVELS == {"modules": "2", "one": "3", "tick": "3"} and set(GROUPINGS) == set(OPT_LEVELS)
-
-
-def test_tick_groups_the_plant_and_the_tick_path_and_leaves_each_device_model_alone() -> None:
-    sources = compiled_sources(ROOT)
-    (hot, name), *rest = groups(sources, "tick")
-    assert name == TICK_GROUP and "hil/plant/plant.py" in hot and "hil/flight/tickloop.py" in hot
-    assert hot == [s for s in sources if not s.startswith("emulators/")]
-    assert rest == [([s], None) for s in sources if s.startswith("emulators/")]
+    assert OPT_LEVELS == {"modules": "2", "one": "3"} and set(GROUPINGS) == set(OPT_LEVELS)
 
 
 @pytest.mark.parametrize("grouping", GROUPINGS)
@@ -50,7 +42,7 @@ def test_every_source_is_in_exactly_one_group(grouping: str) -> None:
 
 
 def test_an_unknown_grouping_is_refused() -> None:
-    with pytest.raises(ValueError, match="expected one of modules, one, tick"):
+    with pytest.raises(ValueError, match="expected one of modules, one"):
         groups(["a.py"], "two")
 
 
@@ -128,8 +120,7 @@ def test_the_compiler_process_refuses_an_unknown_grouping() -> None:
 
 
 def test_the_note_of_a_large_group_says_what_and_how_long() -> None:
-    text = native_build.largest_note(1, 540_000, "3")
-    assert text.startswith("compiling 1 C file of 540,000 lines at -O3, about ") and text.endswith(" min on one core")
+    assert native_build.largest_note(1, 539_281, "3") == "compiling 1 C file of 539,281 lines at -O3, about 5-9 min on one core"
     assert native_build.largest_note(3, 100, "2").startswith("compiling 3 C files of 100 lines at -O2, about 1-2 min")
 
 
@@ -188,3 +179,14 @@ def test_build_runs_the_compiler_with_the_grouping_and_records_it(monkeypatch: p
     assert built.groups == grouping and built.opt_level == OPT_LEVELS[grouping]
     assert m.read(tmp_path / "native") == built and built.modules == {
         "emulators.base": "emulators/base.cpython-311-x86_64-linux-gnu.so"}
+
+
+def test_a_stale_one_group_build_names_the_command_that_rebuilds_it(tmp_path: Path,
+                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    root, build = _one_group_build(tmp_path)
+    (root / "emulators" / "base.py").write_text("X = 2\n")
+    state, _ = _decide(build, root)
+    assert native.stale_message(state.changed, state.groups).endswith("`hil build --groups one` recompiles")
+    assert native.stale_message(state.changed).endswith("`hil build` recompiles")
+    monkeypatch.setattr(native, "state", lambda: state)
+    assert native.describe() == "interpreted (the compiled build is stale (1 sources changed): `hil build --groups one`)"
