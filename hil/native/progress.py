@@ -14,6 +14,7 @@ from collections.abc import Callable
 from types import TracebackType
 
 from rich.console import Console
+from rich.table import Column
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
 from hil import clock
@@ -45,8 +46,10 @@ class BuildProgress:
     def __enter__(self) -> BuildProgress:
         self._started = self._now()
         if self._console.is_terminal:
-            self._bar = Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
-                                 MofNCompleteColumn(), TimeElapsedColumn(), console=self._console, transient=True)
+            # the description last, wrapping: a long one must not squeeze out the elapsed time
+            self._bar = Progress(SpinnerColumn(), TimeElapsedColumn(), BarColumn(bar_width=20), MofNCompleteColumn(),
+                                 TextColumn("{task.description}", table_column=Column(ratio=1)),
+                                 console=self._console, transient=True)
             self._bar.start()
             self._task = self._bar.add_task(self._doing, total=None)
         else:

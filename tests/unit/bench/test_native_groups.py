@@ -190,3 +190,15 @@ def test_a_stale_one_group_build_names_the_command_that_rebuilds_it(tmp_path: Pa
     assert native.stale_message(state.changed).endswith("`hil build` recompiles")
     monkeypatch.setattr(native, "state", lambda: state)
     assert native.describe() == "interpreted (the compiled build is stale (1 sources changed): `hil build --groups one`)"
+
+
+def test_on_a_terminal_a_long_note_wraps_and_leaves_the_elapsed_time_shown() -> None:
+    console = Console(force_terminal=True, width=80, color_system=None, record=True)
+    with BuildProgress(console) as progress:
+        progress.update(95, 95)
+        progress.note("compiling 1 C file of 539,281 lines at -O3, about 5-9 min on one core")
+        assert progress._bar is not None
+        console.print(progress._bar.get_renderable())
+    lines = console.export_text().splitlines()
+    row = next(i for i, line in enumerate(lines) if "95/95" in line)
+    assert "0:00:0" in lines[row] and "about 5-9 min on one core" in " ".join(lines[row:row + 2])
