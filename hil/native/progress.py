@@ -15,7 +15,8 @@ from types import TracebackType
 
 from rich.console import Console
 from rich.table import Column
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.progress import (BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TaskID, TextColumn,
+                           TimeElapsedColumn)
 
 from hil import clock
 
@@ -33,7 +34,7 @@ class BuildProgress:
         self._now = now
         self._heartbeat = heartbeat
         self._bar: Progress | None = None
-        self._task: int | None = None
+        self._task: TaskID | None = None
         self._last_line = 0.0
         self._started = 0.0
         self._total = 0
