@@ -8,7 +8,7 @@
     hil recover LOG              salvage a killed run's .part file into a valid MCAP
     hil campaign FILE            many runs (Dask)
     hil perf                     benchmarks of this machine and the bench
-    hil build                    compile the device models, the plant and the tick path (optional)
+    hil build [--groups G]       compile the device models, the plant and the tick path (optional)
     hil faults                   the fault catalogue with parameters and units
 """
 
@@ -25,6 +25,7 @@ from rich.table import Table
 
 from hil.live.options import DevicesLiveOpt, LiveAddrOpt, LiveOpt, LiveTopicsOpt, live_config
 from hil.fleet.mutation import command as mutation_command
+from hil.native.sources import Grouping
 
 app = typer.Typer(
     help="Hardware-in-the-loop bench for the Wang/Ma/Sun quad-rotor MAV. "
@@ -267,29 +268,28 @@ def perf(
 def build(
     clean: Annotated[bool, typer.Option("--clean", help="Remove the compiled build instead (everything runs interpreted).")] = False,
     jobs: Annotated[Optional[int], typer.Option(help="Parallel compiler processes (default: the CPUs this process may use).")] = None,
+    groups: Annotated[Grouping, typer.Option(help="modules: one extension per module, -O2, in parallel (~2 min); "
+                      "one: one mypyc group at -O3, the fastest ticks, 5-9 min on one core.")] = Grouping.MODULES,
 ) -> None:
-    """Compile the device models, the plant and the tick path with mypyc (a few minutes, once).
-
-    The bench's CPU per tick drops by about a third (docs/performance.md, Builds). The build
-    lives in this environment; it is used only while it is the build of the sources on disk:
-    after an edit, runs are interpreted, say so, and `hil build` compiles again.
+    """Compile the device models, the plant and the tick path with mypyc (minutes, once), for less
+    CPU per tick (docs/performance.md, Builds). The build lives in this environment and is used
+    only while it is the build of the sources on disk: after an edit, runs are interpreted, say
+    so, and `hil build` compiles again.
     Exit status: 0 built (or removed), 2 the build could not start or failed (what to install).
     """
     from hil import native
     from hil.native.build import BuildError, build as build_native, clean as clean_native
+    from hil.native.progress import BuildProgress
 
     if clean:
         console.print(f"removed {native.build_dir()}" if clean_native() else "no compiled build to remove")
         return
-    from hil.native.progress import BuildProgress
-
     try:
         with BuildProgress(console) as progress:
-            m = build_native(jobs=jobs, progress=progress.update)
+            m = build_native(groups=groups.value, jobs=jobs, progress=progress.update, note=progress.note)
     except BuildError as exc:
         _fail(str(exc))
-    console.print(f"compiled {len(m.modules)} extension modules into {native.build_dir()}; "
-                  "`hil` uses them from its next start")
+    console.print(f"compiled {len(m.modules)} extension modules (--groups {m.groups}) into {native.build_dir()}; hil uses them")
 
 
 @app.command()

@@ -209,7 +209,7 @@ async def _acquire(stack: contextlib.AsyncExitStack, run: RunState, attachments:
             run.note(text)
     stale = native.stale()
     if stale:  # the compiled build is older than the sources: this run is interpreted, say so
-        run.note(native.stale_message(stale))
+        run.note(native.stale_message(stale, native.state().groups))
     if run.mode is Mode.LOCKSTEP:
         wanted = rig.flight.virtual_time if virtual_time is None else virtual_time
         with run_setup.started("setting up virtual time"):

@@ -14,7 +14,7 @@ from __future__ import annotations
 import datetime
 import importlib
 
-from hil.native.loader import LOADER, LoadState, Why, build_dir, stale_message
+from hil.native.loader import LOADER, LoadState, Why, build_dir, rebuild_command, stale_message
 
 __all__ = ["LoadState", "Why", "build_dir", "compiled", "describe", "install",
            "stale", "stale_message", "state"]
@@ -49,11 +49,12 @@ def describe() -> str:
     s = state()
     if s.why is Why.COMPILED:
         built = datetime.datetime.fromtimestamp(s.built_ns / 1e9, tz=datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
-        return f"compiled (mypyc -O{s.opt_level}, built {built})"
+        grouping = "one extension per module" if s.groups == "modules" else f"--groups {s.groups}"
+        return f"compiled (mypyc -O{s.opt_level}, {grouping}, built {built})"
     reasons = {
         Why.NOT_BUILT: "no compiled build: `hil build` compiles one",
         Why.SWITCHED_OFF: s.detail,
-        Why.STALE: f"the compiled build is stale ({len(s.changed)} sources changed): `hil build`",
+        Why.STALE: f"the compiled build is stale ({len(s.changed)} sources changed): `{rebuild_command(s.groups)}`",
         Why.OTHER_BUILD: f"the compiled build is for {s.detail}: `hil build`",
         Why.UNREADABLE: f"the compiled build is unreadable ({s.detail}): `hil build`",
         Why.IMPORTED_FIRST: f"{s.detail} imported before hil",

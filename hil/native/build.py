@@ -26,11 +26,14 @@ from pathlib import Path
 from hil import clock
 from hil.native import manifest as manifest_mod
 from hil.native.loader import build_dir
-from hil.native.sources import project_root, watched_sources
+from hil.native.sources import OPT_LEVELS, project_root, watched_sources
 
-#: mypyc's C at -O2 runs as fast as at -O3 here and compiles in less time (docs/performance.md)
-DEFAULT_OPT_LEVEL = "2"
 _BUILDING = "building '"
+_LARGEST = "hil-build-largest: "
+#: C lines of one mypyc group that one core compiles per minute at -O3 on the 2-core machine of
+#: docs/performance.md, Builds (540,000 lines in 6-9 min): for the estimate shown while a large
+#: group compiles, +-30 %
+C_LINES_PER_MIN = 75_000
 
 
 class BuildError(Exception):
@@ -65,9 +68,18 @@ def _module_of(rel: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-def _run_compiler(tmp: Path, root: Path, opt_level: str, jobs: int,
-                  progress: Callable[[int, int], None]) -> None:
-    argv = [sys.executable, "-m", "hil.native.compile", str(tmp), "--opt-level", opt_level, "--jobs", str(jobs)]
+def largest_note(c_files: int, lines: int, opt_level: str) -> str:
+    """What the build is doing while its largest group compiles, with a rough duration."""
+    low = max(1, round(lines / C_LINES_PER_MIN * 0.7))
+    high = max(low + 1, round(lines / C_LINES_PER_MIN * 1.3))
+    files = "1 C file" if c_files == 1 else f"{c_files} C files"
+    return f"compiling {files} of {lines:,} lines at -O{opt_level}, about {low}-{high} min on one core"
+
+
+def _run_compiler(tmp: Path, root: Path, grouping: str, opt_level: str, jobs: int,
+                  progress: Callable[[int, int], None], note: Callable[[str], None]) -> None:
+    argv = [sys.executable, "-m", "hil.native.compile", str(tmp), "--groups", grouping, "--opt-level", opt_level,
+            "--jobs", str(jobs)]
     tail: collections.deque[str] = collections.deque(maxlen=40)
     total = done = 0
     with subprocess.Popen(argv, cwd=root, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
@@ -79,6 +91,10 @@ def _run_compiler(tmp: Path, root: Path, opt_level: str, jobs: int,
                 if line.startswith("hil-build: "):
                     total = int(line.split()[1])
                     progress(0, total)
+                elif line.startswith(_LARGEST):
+                    c_files, lines, _name = line[len(_LARGEST):].split()
+                    if int(lines) >= C_LINES_PER_MIN:  # a group that takes a minute or more
+                        note(largest_note(int(c_files), int(lines), opt_level))
                 elif line.startswith(_BUILDING):
                     done += 1
                     progress(done, total)
@@ -90,13 +106,18 @@ def _run_compiler(tmp: Path, root: Path, opt_level: str, jobs: int,
                          % (proc.returncode, "\n".join(tail)))
 
 
-def build(*, opt_level: str = DEFAULT_OPT_LEVEL, jobs: int | None = None, directory: Path | None = None,
-          progress: Callable[[int, int], None] = lambda done, total: None) -> manifest_mod.Manifest:
+def build(*, groups: str = "modules", opt_level: str | None = None, jobs: int | None = None,
+          directory: Path | None = None, progress: Callable[[int, int], None] = lambda done, total: None,
+          note: Callable[[str], None] = lambda text: None) -> manifest_mod.Manifest:
     """Compile into ``directory`` (default: hil.native.build_dir(), where ``import hil`` looks)
     and return its manifest.
 
-    ``progress(done, total)``: extension modules compiled so far (0 of N once the C exists).
+    ``groups``: sources.GROUPINGS (one extension per module, or one group for all);
+    ``opt_level``: mypyc's, by default the grouping's (sources.OPT_LEVELS).
+    ``progress(done, total)``: extension modules started so far (0 of N once the C exists);
+    ``note(text)``: what a long step is doing (a large group compiling).
     ``jobs``: parallel compiler processes (default: the CPUs this process may use)."""
+    opt_level = opt_level or OPT_LEVELS[groups]
     preflight()
     root = project_root()
     final = directory or build_dir()
@@ -106,11 +127,11 @@ def build(*, opt_level: str = DEFAULT_OPT_LEVEL, jobs: int | None = None, direct
     tmp = final.parent / f".{final.name}.building-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     try:
-        _run_compiler(tmp, root, opt_level, jobs or len(os.sched_getaffinity(0)), progress)
+        _run_compiler(tmp, root, groups, opt_level, jobs or len(os.sched_getaffinity(0)), progress, note)
         lib = tmp / "lib"
         modules = {_module_of(p.relative_to(lib)): p.relative_to(lib).as_posix() for p in sorted(lib.rglob("*.so"))}
         m = manifest_mod.Manifest(root=str(root), interpreter=manifest_mod.interpreter_tag(), opt_level=opt_level,
-                                  built_ns=started_ns, modules=modules, sources=stamps)
+                                  groups=groups, built_ns=started_ns, modules=modules, sources=stamps)
         m.write(lib)
         _swap_in(lib, final)
         return m

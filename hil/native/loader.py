@@ -59,6 +59,7 @@ class LoadState:
     changed: tuple[str, ...] = ()
     detail: str = ""
     opt_level: str = ""
+    groups: str = ""
     built_ns: int = 0
 
     @property
@@ -122,18 +123,24 @@ def _decide(directory: Path, root: Path) -> tuple[LoadState, manifest_mod.Manife
         return LoadState(directory, Why.OTHER_BUILD, detail=f"{m.interpreter} for {m.root}"), None
     changed = tuple(m.changed_sources())
     if changed:
-        return LoadState(directory, Why.STALE, changed=changed, opt_level=m.opt_level, built_ns=m.built_ns), None
+        return LoadState(directory, Why.STALE, changed=changed, opt_level=m.opt_level, groups=m.groups,
+                         built_ns=m.built_ns), None
     early = sorted(name for name in m.modules if name in sys.modules)
     if early:
         return LoadState(directory, Why.IMPORTED_FIRST, detail=", ".join(early[:3])), None
-    return LoadState(directory, Why.COMPILED, opt_level=m.opt_level, built_ns=m.built_ns), m
+    return LoadState(directory, Why.COMPILED, opt_level=m.opt_level, groups=m.groups, built_ns=m.built_ns), m
 
 
-def stale_message(changed: Sequence[str]) -> str:
+def rebuild_command(groups: str = "modules") -> str:
+    """The command that compiles a build like this one again (its grouping kept)."""
+    return "hil build" if groups in ("", "modules") else f"hil build --groups {groups}"
+
+
+def stale_message(changed: Sequence[str], groups: str = "modules") -> str:
     """One sentence for a stale build: which sources, what runs instead, how to rebuild."""
     names = ", ".join(changed[:3]) + (f" and {len(changed) - 3} more" if len(changed) > 3 else "")
     return (f"the compiled build is older than {names}: running interpreted (slower, the same "
-            "flight); `hil build` recompiles")
+            f"flight); `{rebuild_command(groups)}` recompiles")
 
 
 class Loader:
@@ -159,7 +166,7 @@ class Loader:
             sys.meta_path.insert(0, _CompiledFinder(state.directory, dict(m.modules), root))
         elif state.why is Why.STALE:
             # stderr, not warnings.warn: this runs at ``import hil``, before any filter a user could set
-            sys.stderr.write(f"warning: {stale_message(state.changed)}\n")
+            sys.stderr.write(f"warning: {stale_message(state.changed, state.groups)}\n")
         self._state = state
         return state
 

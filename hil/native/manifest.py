@@ -62,6 +62,8 @@ class Manifest:
     interpreter: str
     opt_level: str
     built_ns: int
+    #: sources.GROUPINGS: how mypyc grouped the modules (a build before the option: "modules")
+    groups: str = "modules"
     modules: dict[str, str] = field(default_factory=dict)
     sources: dict[str, SourceStamp] = field(default_factory=dict)
 
@@ -73,7 +75,7 @@ class Manifest:
     def to_json(self) -> str:
         data: dict[str, Any] = {
             "format": FORMAT, "root": self.root, "interpreter": self.interpreter,
-            "opt_level": self.opt_level, "built_ns": self.built_ns, "modules": self.modules,
+            "opt_level": self.opt_level, "groups": self.groups, "built_ns": self.built_ns, "modules": self.modules,
             "sources": {k: [v.sha256, v.size, v.mtime_ns] for k, v in self.sources.items()},
         }
         return json.dumps(data, indent=1, sort_keys=True)
@@ -84,7 +86,7 @@ class Manifest:
         if data.get("format") != FORMAT:
             raise ValueError(f"manifest format {data.get('format')!r}, expected {FORMAT}")
         return cls(root=data["root"], interpreter=data["interpreter"], opt_level=data["opt_level"],
-                   built_ns=int(data["built_ns"]), modules=dict(data["modules"]),
+                   groups=str(data.get("groups", "modules")), built_ns=int(data["built_ns"]), modules=dict(data["modules"]),
                    sources={k: SourceStamp(v[0], int(v[1]), int(v[2])) for k, v in data["sources"].items()})
 
     def write(self, directory: Path) -> None:

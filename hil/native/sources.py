@@ -13,6 +13,7 @@ the compiled code should be.
 
 from __future__ import annotations
 
+import enum
 from pathlib import Path
 
 #: interpreted on purpose: pydantic builds their validators at import time from the class
@@ -56,3 +57,30 @@ def module_name(source: str) -> str:
     """``hil/plant/plant.py`` -> ``hil.plant.plant``; ``emulators/rc/__init__.py`` -> ``emulators.rc``."""
     parts = source.removesuffix(".py").split("/")
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+#: ``hil build --groups``: how the compiled sources are split into mypyc groups. A group is one
+#: C file, compiled by one core; calls between modules of one group stay inside that file.
+#: ``modules``: one group per module, compiled in parallel at -O2 (the default, ~2 min);
+#: ``one``: every module in one group at -O3, the old build (5-9 min on one core), the fastest
+#: ticks. Grouping only the plant and the tick path at -O3 was measured too and left out: its
+#: group is half the C, and it stays slower than ``one`` (docs/performance.md, Builds)
+class Grouping(str, enum.Enum):
+    MODULES = "modules"
+    ONE = "one"
+
+
+GROUPINGS = tuple(g.value for g in Grouping)
+OPT_LEVELS = {"modules": "2", "one": "3"}
+#: the name of the one group's shared library (``hil_native__mypyc``), as the old build had it
+ONE_GROUP = "hil_native"
+
+
+def groups(sources: list[str], grouping: str) -> list[tuple[list[str], str | None]]:
+    """mypycify's ``separate``: the groups of ``sources`` (paths) for ``grouping``; a group
+    named None is named by mypyc after its modules."""
+    if grouping == "modules":
+        return [([source], None) for source in sources]
+    if grouping == "one":
+        return [(list(sources), ONE_GROUP)]
+    raise ValueError(f"grouping {grouping!r}: expected one of {', '.join(GROUPINGS)}")

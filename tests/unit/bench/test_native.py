@@ -173,5 +173,5 @@ def test_build_progress_on_a_pipe_prints_plain_lines() -> None:
         progress.update(10, 10)
     lines = console.export_text().splitlines()
     assert [line.split("] ", 1)[1] for line in lines] == [
-        "type-checking and generating C (mypyc)", "compiling C: 0/10 extension modules",
-        "compiling C: 10/10 extension modules"]
+        "type-checking and generating C (mypyc)", "compiling C: 0/10 extension modules started",
+        "compiling C: 10/10 extension modules started"]
