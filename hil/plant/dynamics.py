@@ -87,6 +87,35 @@ class DynamicsConstants:
     ge_gain: Callable[[float], float]
 
 
+def rotor_hub_aero_B(
+    sd: float, sz: float, sf: float, o_radps: float,
+    rx_m: float, ry_m: float, rz_m: float,
+    bx_mps: float, by_mps: float, bz_mps: float,
+    wx_radps: float, wy_radps: float, wz_radps: float,
+    gx_mps: float, gy_mps: float, gz_mps: float,
+) -> tuple[float, float, float, float, float, float]:
+    """One rotor's H-force (N) at its hub and the moment it adds about the CG (N m), body FRD.
+
+    ``sd``, ``sz``, ``sf``: sigma times rotor drag in-plane, along the shaft, and flapping;
+    ``o_radps``: rotor speed; ``r*_m``: hub relative to the CG; ``b*_mps``: the CG's
+    air-relative velocity; ``w*_radps``: body rates; ``g*_mps``: the hub's gust minus the
+    CG's. Returns (Hx, Hy, Hz, dMx, dMy, dMz); the caller adds them in that order, so the
+    floating-point sums are those of the former inline code.
+    """
+    hvx = bx_mps + wy_radps * rz_m - wz_radps * ry_m - gx_mps
+    hvy = by_mps + wz_radps * rx_m - wx_radps * rz_m - gy_mps
+    hvz = bz_mps + wx_radps * ry_m - wy_radps * rx_m - gz_mps
+    hx_, hy_, hz_ = -sd * o_radps * hvx, -sd * o_radps * hvy, -sz * o_radps * hvz
+    return (
+        hx_,
+        hy_,
+        hz_,
+        ry_m * hz_ - rz_m * hy_ - sf * o_radps * hvy,
+        rz_m * hx_ - rx_m * hz_ + sf * o_radps * hvx,
+        rx_m * hy_ - ry_m * hx_,
+    )
+
+
 def make_derivative(k: DynamicsConstants) -> Derivative:
     """Build ``f(x, u) -> dx/dt`` (a 17-tuple) with the constants bound in."""
     g = k.gravity_mps2
@@ -154,48 +183,44 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
         fx, fy, fz = ex, ey, ez - (t0 + t1 + t2 + t3)
         if rotor_aero:
             # Per rotor: hub air velocity (CG + w x r - local gust), H-force at the hub and its
-            # moment r x H, flapping moment. Unrolled: a loop over tuples costs ~2x here.
+            # moment r x H, flapping moment; one call per rotor (a loop over tuples costs ~2x).
             sd, sz, sf = sig * kd, sig * kz, sig * kf
-            hvx = bx + wy * rz0 - wz * ry0 - g0x
-            hvy = by + wz * rx0 - wx * rz0 - g0y
-            hvz = bz + wx * ry0 - wy * rx0 - g0z
-            hx_, hy_, hz_ = -sd * o0 * hvx, -sd * o0 * hvy, -sz * o0 * hvz
+            hx_, hy_, hz_, dmx, dmy, dmz = rotor_hub_aero_B(
+                sd, sz, sf, o0, rx0, ry0, rz0, bx, by, bz, wx, wy, wz, g0x, g0y, g0z
+            )
             fx += hx_
             fy += hy_
             fz += hz_
-            mx += ry0 * hz_ - rz0 * hy_ - sf * o0 * hvy
-            my += rz0 * hx_ - rx0 * hz_ + sf * o0 * hvx
-            mz += rx0 * hy_ - ry0 * hx_
-            hvx = bx + wy * rz1 - wz * ry1 - g1x
-            hvy = by + wz * rx1 - wx * rz1 - g1y
-            hvz = bz + wx * ry1 - wy * rx1 - g1z
-            hx_, hy_, hz_ = -sd * o1 * hvx, -sd * o1 * hvy, -sz * o1 * hvz
+            mx += dmx
+            my += dmy
+            mz += dmz
+            hx_, hy_, hz_, dmx, dmy, dmz = rotor_hub_aero_B(
+                sd, sz, sf, o1, rx1, ry1, rz1, bx, by, bz, wx, wy, wz, g1x, g1y, g1z
+            )
             fx += hx_
             fy += hy_
             fz += hz_
-            mx += ry1 * hz_ - rz1 * hy_ - sf * o1 * hvy
-            my += rz1 * hx_ - rx1 * hz_ + sf * o1 * hvx
-            mz += rx1 * hy_ - ry1 * hx_
-            hvx = bx + wy * rz2 - wz * ry2 - g2x
-            hvy = by + wz * rx2 - wx * rz2 - g2y
-            hvz = bz + wx * ry2 - wy * rx2 - g2z
-            hx_, hy_, hz_ = -sd * o2 * hvx, -sd * o2 * hvy, -sz * o2 * hvz
+            mx += dmx
+            my += dmy
+            mz += dmz
+            hx_, hy_, hz_, dmx, dmy, dmz = rotor_hub_aero_B(
+                sd, sz, sf, o2, rx2, ry2, rz2, bx, by, bz, wx, wy, wz, g2x, g2y, g2z
+            )
             fx += hx_
             fy += hy_
             fz += hz_
-            mx += ry2 * hz_ - rz2 * hy_ - sf * o2 * hvy
-            my += rz2 * hx_ - rx2 * hz_ + sf * o2 * hvx
-            mz += rx2 * hy_ - ry2 * hx_
-            hvx = bx + wy * rz3 - wz * ry3 - g3x
-            hvy = by + wz * rx3 - wx * rz3 - g3y
-            hvz = bz + wx * ry3 - wy * rx3 - g3z
-            hx_, hy_, hz_ = -sd * o3 * hvx, -sd * o3 * hvy, -sz * o3 * hvz
+            mx += dmx
+            my += dmy
+            mz += dmz
+            hx_, hy_, hz_, dmx, dmy, dmz = rotor_hub_aero_B(
+                sd, sz, sf, o3, rx3, ry3, rz3, bx, by, bz, wx, wy, wz, g3x, g3y, g3z
+            )
             fx += hx_
             fy += hy_
             fz += hz_
-            mx += ry3 * hz_ - rz3 * hy_ - sf * o3 * hvy
-            my += rz3 * hx_ - rx3 * hz_ + sf * o3 * hvx
-            mz += rx3 * hy_ - ry3 * hx_
+            mx += dmx
+            my += dmy
+            mz += dmz
         ax = (r00 * fx + r01 * fy + r02 * fz) * minv
         ay = (r10 * fx + r11 * fy + r12 * fz) * minv
         az = (r20 * fx + r21 * fy + r22 * fz) * minv + g
