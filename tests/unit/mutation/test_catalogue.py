@@ -3,6 +3,8 @@ once to today's flight code; and the validation of bad catalogues and equivalent
 
 from __future__ import annotations
 
+import ast
+import builtins
 from pathlib import Path
 
 import pytest
@@ -41,6 +43,32 @@ def test_each_entry_applies_exactly_once_to_todays_flight_code(cat, tree, i: int
     after = edited(tree, [Edit(m.file, m.old, m.new)], what=m.id)
     assert after[m.file] != tree[m.file]
     compile(after[m.file].decode(), m.file, "exec")  # a defect, not a syntax error
+    unbound = _new_names(tree[m.file].decode(), after[m.file].decode()) - _bound_names(after[m.file].decode())
+    assert not unbound, f"{m.id}: the edit reads names bound nowhere in {m.file}: {sorted(unbound)} (a NameError, not a defect)"
+
+
+def _loaded(source: str) -> set[str]:
+    return {n.id for n in ast.walk(ast.parse(source)) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+
+
+def _new_names(before: str, after: str) -> set[str]:
+    """Names the edit makes the module read that it did not read before."""
+    return _loaded(after) - _loaded(before)
+
+
+def _bound_names(source: str) -> set[str]:
+    """Every name the module binds anywhere (imports, defs, assignments, arguments), and builtins."""
+    bound = set(dir(builtins))
+    for n in ast.walk(ast.parse(source)):
+        if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store):
+            bound.add(n.id)
+        elif isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            bound.add(n.name)
+        elif isinstance(n, ast.arg):
+            bound.add(n.arg)
+        elif isinstance(n, (ast.Import, ast.ImportFrom)):
+            bound.update((a.asname or a.name).split(".")[0] for a in n.names)
+    return bound
 
 
 def test_the_flight_code_is_not_edited_and_has_nothing_for_mutation(cat, tree) -> None:
