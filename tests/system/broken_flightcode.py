@@ -75,6 +75,11 @@ VARIANTS += [
     _from_catalogue("drv-ppm-crc-ignored", "fault-rc-bit-errors", {
         "the altitude setpoint stays at the pilot's 2 m (within 0.1 m)", "roll within 3 deg through it",
         "pitch within 3 deg through it"}),
+    _from_catalogue("tel-time-units", "arm-idle", {"telemetry time in 0.1 ms: t_s advances 8 s in 8 s"}),
+    _from_catalogue("ctl-lqi-windup-upper", "climb-full-throttle", {
+        "overshoot over pre-step + 9 m: reaches the step, at most 1.8 m over"}),
+    _from_catalogue("ctl-mixer-yaw-not-cut", "climb-full-throttle", {
+        "roll follows its reference within 3 deg through the climb", "pitch held within 3 deg through the climb"}),
 ]
 
 #: runs the copied flight code: its tree first on sys.path, then flightcode's own main
