@@ -14,22 +14,18 @@ from rich.console import Console
 import hil.flight.devices_live
 from hil.config.rig import load_rig
 from hil.config.scenario import load_scenario
-from hil.flight import run_setup
 from hil.flight.devices_live import serve_devices
 from hil.flight.run_setup import RunStartError
 from hil.live.topics import LiveConfig
 from hil.transport.pty import PtyPort
+from tests.system.test_run_resources import STEPS as RUN_STEPS
+from tests.system.test_run_resources import assert_names_step, fail_at
 from tests.transport.nullmodem import null_modem
 
 pytestmark = [pytest.mark.system, pytest.mark.pty]
 
-#: (step function in hil.flight.run_setup, the words of the error naming it)
-STEPS = [
-    ("open_serial_lines", "opening the serial lines"),
-    ("make_private_dir", "creating the run directory"),
-    ("open_ports", "opening the ports"),
-    ("start_recorder", "starting the recorder"),
-]
+#: hil devices acquires the first four of hil run's steps (the same run_setup functions)
+STEPS = RUN_STEPS[: [name for name, _ in RUN_STEPS].index("start_recorder") + 1]
 
 
 async def _fails(tmp_path: Path, clean_slate, error: type[BaseException], match: str,
@@ -51,13 +47,9 @@ async def _fails(tmp_path: Path, clean_slate, error: type[BaseException], match:
 @pytest.mark.parametrize(("step", "words"), STEPS)
 async def test_a_failure_at_each_step_leaves_nothing(step: str, words: str, clean_slate, tmp_path: Path,
                                                      monkeypatch: pytest.MonkeyPatch) -> None:
-    def injected(*_: object, **__: object) -> None:
-        raise OSError(5, f"injected failure at {step}")
-
-    monkeypatch.setattr(run_setup, step, injected)
+    fail_at(monkeypatch, step)
     info = await _fails(tmp_path, clean_slate, RunStartError, words)
-    message = str(info.value)
-    assert words in message and f"injected failure at {step}" in message and "\n" not in message
+    assert_names_step(info.value, step, words)
 
 
 async def test_a_pty_that_fails_among_the_ports_leaves_nothing(clean_slate, tmp_path: Path,

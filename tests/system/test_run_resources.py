@@ -33,6 +33,20 @@ STEPS = [
 ]
 
 
+def fail_at(monkeypatch: pytest.MonkeyPatch, step: str) -> None:
+    """Make run_setup's ``step`` raise an OSError naming it."""
+    def injected(*_: object, **__: object) -> None:
+        raise OSError(5, f"injected failure at {step}")
+
+    monkeypatch.setattr(run_setup, step, injected)
+
+
+def assert_names_step(error: BaseException, step: str, words: str) -> None:
+    """One line naming the step (its words) and the injected cause."""
+    message = str(error)
+    assert words in message and f"injected failure at {step}" in message and "\n" not in message
+
+
 def _load(scenario: str = "hover"):
     rig = load_rig(None)
     source = rig.scenario_path(scenario)
@@ -42,17 +56,13 @@ def _load(scenario: str = "hover"):
 @pytest.mark.parametrize(("step", "words"), STEPS)
 async def test_a_failure_at_each_step_leaves_nothing(step: str, words: str, clean_slate, tmp_path: Path,
                                                      monkeypatch: pytest.MonkeyPatch) -> None:
-    def injected(*_: object, **__: object) -> None:
-        raise OSError(5, f"injected failure at {step}")
-
-    monkeypatch.setattr(run_setup, step, injected)
+    fail_at(monkeypatch, step)
     clean_slate()
     rig, scenario, source = _load()
     out = tmp_path / "logs"
     with pytest.raises(RunStartError) as info:
         await run_flight_async(rig, scenario, scenario_source=source, duration_s=0.2, out_dir=out)
-    message = str(info.value)
-    assert words in message and f"injected failure at {step}" in message and "\n" not in message
+    assert_names_step(info.value, step, words)
     clean_slate(out)
     logs = list(out.glob("*.mcap")) if out.exists() else []
     started = [s for s, _ in STEPS].index(step) > [s for s, _ in STEPS].index("start_recorder")
