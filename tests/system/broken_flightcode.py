@@ -80,6 +80,8 @@ VARIANTS += [
         "overshoot over pre-step + 9 m: reaches the step, at most 1.8 m over"}),
     _from_catalogue("ctl-mixer-yaw-not-cut", "climb-full-throttle", {
         "roll follows its reference within 3 deg through the climb", "pitch held within 3 deg through the climb"}),
+    _from_catalogue("est-baro-gate-never-reanchors", "fault-baro-shift", {
+        "the estimate re-anchors to the barometer: estimate - baro altitude within 0.5 m from 3 s after the shift"}),
 ]
 
 #: runs the copied flight code: its tree first on sys.path, then flightcode's own main
