@@ -24,6 +24,11 @@ corrupted on the wire whose checksum still matches would otherwise move the loop
 hours (a u32 of 10 kHz ticks wraps at 119 h) and fire every timer. After
 ``REBASE_AFTER_REJECTS`` rejections in a row the device's clock is believed again as it
 reads (a packet counter that jumped or stalled on the device: ``time_rebases``).
+
+A sample whose values cannot be true (flightcode/drivers/imu_checks.py: not finite, beyond
+any MTi's range, or a jump the airframe cannot make since the last accepted sample) is
+rejected too (``rejected_values``), and after ``REBASE_AFTER_REJECTS`` in a row believed
+again (``value_rebases``): the vehicle really did move that fast.
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ from collections import Counter, deque
 from dataclasses import dataclass
 from typing import Literal
 
-from flightcode.drivers import mtdata, xbus
+from flightcode.drivers import imu_checks, mtdata, xbus
 from flightcode.drivers.base import DeviceError, SerialLike
 from flightcode.drivers.mtdata import XsensData
 from flightcode.drivers.xbus import Mid, XbusMessage
@@ -127,6 +132,9 @@ class XsensDriver:
         self._last_raw = 0
         self._last_counter: int | None = None
         self._rejects_in_row = 0
+        #: the last accepted sample's (t_ns, euler_rad, omega_B_radps), for the value checks
+        self._accepted: tuple[int, tuple[float, float, float], tuple[float, float, float]] | None = None
+        self._value_rejects_in_row = 0
 
     # -- boot ----------------------------------------------------------------------------
     def _read_messages(self) -> list[XbusMessage]:
@@ -245,8 +253,26 @@ class XsensDriver:
             self.counters["gaps" if step else "duplicates"] += 1
         self._last_counter = data.counter
         roll, pitch, yaw = data.euler_deg
-        return ImuSample(self._clock_ticks * tick_ns, data.counter, (roll * _DEG, pitch * _DEG, yaw * _DEG),
-                         data.rate_of_turn_radps, data.acceleration_mps2, data.status, skipped)
+        sample = ImuSample(self._clock_ticks * tick_ns, data.counter, (roll * _DEG, pitch * _DEG, yaw * _DEG),
+                           data.rate_of_turn_radps, data.acceleration_mps2, data.status, skipped)
+        return sample if self._believable(sample) else None
+
+    def _believable(self, s: ImuSample) -> bool:
+        """The value checks of imu_checks against the last accepted sample (counted if not)."""
+        acc = self._accepted
+        last = None if acc is None else (acc[1], acc[2])
+        dt_s = 0.0 if acc is None else max(0, s.t_ns - acc[0]) * 1e-9
+        reason = imu_checks.implausible(s.euler_rad, s.omega_B_radps, s.f_B_mps2, last, dt_s)
+        if reason is not None:
+            self._value_rejects_in_row += 1
+            # a value out of range is never true; a jump that persists is the vehicle's
+            if not reason.endswith("jump") or self._value_rejects_in_row < REBASE_AFTER_REJECTS:
+                self.counters["rejected_values"] += 1
+                return False
+            self.counters["value_rebases"] += 1
+        self._value_rejects_in_row = 0
+        self._accepted = (s.t_ns, s.euler_rad, s.omega_B_radps)
+        return True
 
     def read_sample(self, timeout_s: float) -> ImuSample | None:
         """Block until the next sample (the newest one if several are queued).

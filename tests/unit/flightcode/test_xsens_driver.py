@@ -260,3 +260,50 @@ def test_a_real_gap_keeps_its_time() -> None:
     port.feed(_hover(dev, 200 * 2_500_000))
     s = drv.read_sample(0.0)
     assert s is not None and s.t_ns == 500_000_000 and drv.counters["rejected_time_jumps"] == 0
+
+
+@pytest.mark.parametrize(("euler_deg", "gyr"), [
+    ((1.0e19, 0.0, 0.0), (0.0, 0.0, 0.0)),   # a flipped exponent bit in roll
+    ((0.0, 0.0, 0.0), (0.0, 40.0, 0.0)),     # 2290 deg/s: beyond any MTi's range
+    ((16.0, 0.0, 0.0), (0.0, 0.0, 0.0)),     # 16 deg in 2.5 ms with the vehicle at rest
+    ((0.0, 0.0, 0.0), (25.6, 0.0, 0.0)),     # 0.1 rad/s x 256: a jump no airframe makes
+])
+def test_a_sample_that_cannot_be_true_is_rejected(euler_deg, gyr) -> None:
+    """A frame corrupted on the wire whose one-byte checksum still matches: the values are
+    refused and counted, and the next good sample is taken. (A non-finite value is refused
+    earlier, by the MTData2 decoder.)"""
+    drv, dev, port = _started()
+    port.feed(_hover(dev, 0))
+    assert drv.read_sample(0.0) is not None
+    port.feed(dev.sample(2_500_000, euler_deg, gyr, (0, 0, -9.8)))
+    assert drv.read_sample(0.0) is None
+    assert drv.counters["rejected_values"] == 1
+    port.feed(_hover(dev, 5_000_000))
+    s = drv.read_sample(0.0)
+    assert s is not None and s.t_ns == 5_000_000
+
+
+def test_a_manoeuvre_is_not_a_jump() -> None:
+    """A 300 deg/s roll at 400 Hz moves 0.75 deg a sample: every sample is taken."""
+    drv, dev, port = _started()
+    for k in range(40):
+        port.feed(dev.sample(k * 2_500_000, (0.75 * k, 0.0, 179.9 if k % 2 else -179.9),
+                             (math.radians(300.0), 0.0, 0.0), (0, 0, -9.8)))
+        assert drv.read_sample(0.0) is not None, k  # yaw crossing +-180 deg is no jump either
+    assert drv.counters["rejected_values"] == 0
+
+
+def test_a_jump_that_persists_is_believed_but_a_value_out_of_range_never() -> None:
+    drv, dev, port = _started()
+    port.feed(_hover(dev, 0))
+    drv.read_sample(0.0)
+    got = []
+    for k in range(1, 5):  # the attitude really jumped (the device re-aligned): believed on the 3rd
+        port.feed(dev.sample(k * 2_500_000, (20.0, 0.0, 0.0), (0, 0, 0), (0, 0, -9.8)))
+        got.append(drv.read_sample(0.0))
+    assert [g is not None for g in got] == [False, False, True, True]
+    assert drv.counters["value_rebases"] == 1
+    for k in range(5, 10):
+        port.feed(dev.sample(k * 2_500_000, (20.0, 0.0, 0.0), (0, 50.0, 0), (0, 0, -9.8)))
+        assert drv.read_sample(0.0) is None
+    assert drv.counters["rejected_values"] == 2 + 5
