@@ -9,9 +9,9 @@ to the kernel's flush work running on the idle CPU. The caches of a CPU that was
 also colder. Holding a CPU latency request of 0 us makes the idle governor poll instead
 (``idle=poll`` for the duration), as ``cyclictest`` and ``rtla timerlat --dma-latency`` do.
 
-Measured on the development VM, interleaved pairs of 10 s recorded hovers:
-lockstep RTF 2.8-2.9x -> 4.1-4.7x and the bench's CPU per tick 0.7-0.8 of before; realtime
-response p99 1.09-1.27 ms -> 0.68-0.79 ms.
+What it gains on the machine at hand (lockstep RTF, the bench's CPU per tick, realtime
+response) is measured with interleaved pairs of recorded hovers with and without it
+(docs/time.md says how).
 
 The request is an open file: the kernel keeps it while ``/dev/cpu_dma_latency`` is open and
 drops it when it is closed, by this process's exit too, so a crash cannot leave it behind.

@@ -2,10 +2,10 @@
 
 In realtime mode the tick is due at a wall-clock instant and the flight code's command must
 come within the tick. Under the default policy (``SCHED_OTHER``) any other busy process on
-the host shares the cores with them: with four CPU-bound processes beside a 10 s hover on a
-two-core machine, ticks were 8-24 ms late at p99 and 650-841 of 4001 samples got no command.
-``SCHED_FIFO`` threads run before every ``SCHED_OTHER`` one: the same runs on it were 82-912 us
-late at p99 and 10-40 samples got no command (measured on the development VM; `--stress-cpu 4`).
+the host shares the cores with them: with CPU-bound processes beside a hover, ticks are
+milliseconds late and many samples get no command. ``SCHED_FIFO`` threads run before every
+``SCHED_OTHER`` one, which keeps the tick loop on time under the same load (`hil run
+--mode realtime --stress-cpu 4` shows both on the machine at hand, docs/time.md).
 
 What is raised, and what is not:
 

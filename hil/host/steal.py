@@ -7,11 +7,11 @@ prevent it or even see it happen, except afterwards, in the time the kernel book
 *steal* (KVM's paravirtual steal clock and its kin, summed per CPU in ``/proc/stat``).
 
 A realtime run with its tick loop and flight code at ``SCHED_FIFO`` on an otherwise quiet
-guest has nothing left inside the guest that can hold it up for milliseconds. On the
-development VM, every realtime run whose tick loop saw no steal time had every sample
-answered (5 of 5), and nearly every run with steal time had some without a command (33 of
-35; tests/bench/bench_realtime_steal.py). So a run reports the steal time it saw (``timing["host_steal_ms"]``), and
-a realtime run whose misses came with steal time says so in a note.
+guest has nothing left inside the guest that can hold it up for milliseconds, so samples
+without a command in such a run come with steal time (tests/bench/bench_realtime_steal.py
+splits N realtime hovers by it, docs/time.md). A run reports the steal time it saw
+(``timing["host_steal_ms"]``), and a realtime run whose misses came with steal time says so
+in a note.
 
 Units: ``/proc/stat`` counts in clock ticks (``USER_HZ``, 100 per second on Linux), so a
 figure is a multiple of 10 ms and, each CPU's count being truncated, a pause shorter than a
