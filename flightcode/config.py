@@ -134,6 +134,8 @@ def _check(file: str, cfg: FlightConfig) -> None:
     }
     for key, value in positive.items():
         need(value > 0, key, f"must be > 0 (got {value})")
+    need(0.0 <= cfg.adc.baro.rail_margin_V < 0.25 * cfg.adc.vref_V, "adc.baro.rail_margin_V",
+         f"must be >= 0 and < a quarter of vref_V (got {cfg.adc.baro.rail_margin_V})")
     non_negative = {
         "attitude.k0_per_s": cfg.attitude.k0_per_s, "attitude.tau_ff_s": cfg.attitude.tau_ff_s,
         "yaw.kp_Nm_per_radps": cfg.yaw.kp_Nm_per_radps, "yaw.ki_Nm_per_rad": cfg.yaw.ki_Nm_per_rad,

@@ -47,6 +47,10 @@ class BaroChainParams:
         offset_V: sensor voltage subtracted before the gain, V.
         ref_V: voltage added after the gain, V.
         zero_average_s: sensor time averaged at boot for the altitude reference, s.
+        rail_margin_V: a reading closer than this to either ADC rail is not a pressure, V
+            (0.05: twice the 25 mV output swing limit of a rail-to-rail op-amp such as
+            Microchip's MCP6002, datasheet DS21733; closer in, the stage is saturated or its
+            input is open and floating to a rail).
     """
 
     __pydantic_config__ = {"extra": "forbid"}
@@ -58,6 +62,7 @@ class BaroChainParams:
     offset_V: float = 3.928375  # 5 V x (0.009 x 101.325 - 0.095) - 2.5 V / 16
     ref_V: float = 0.0
     zero_average_s: float = 1.0
+    rail_margin_V: float = 0.05
 
 
 @dataclass(frozen=True)
@@ -111,6 +116,9 @@ class AnalogChain:
         self.baro = baro
         self.accel = accel
         self._v_per_code = vref_V / RESOLUTION_CODES
+        margin_codes = max(0, math.ceil(baro.rail_margin_V / self._v_per_code))
+        self._rail_lo_code = margin_codes  # codes at or inside these are refused
+        self._rail_hi_code = RESOLUTION_CODES - 1 - margin_codes
         self._mount = parse_mount(accel.mount_B)
         self._acc_zero_V = accel.supply_V * accel.zero_g_ratio
         self._acc_mps2_per_V = G0_MPS2 / (accel.supply_V * accel.sens_ratio_per_g)
@@ -120,8 +128,9 @@ class AnalogChain:
         return (code + 0.5) * self._v_per_code
 
     def baro_pressure_Pa(self, code: int) -> float | None:
-        """Absolute pressure, Pa; None if the code sits at either rail (out of range)."""
-        if code <= 0 or code >= RESOLUTION_CODES - 1:
+        """Absolute pressure, Pa; None if the code lies within ``rail_margin_V`` of either
+        rail (the stage saturated, or an open input: out of range)."""
+        if code <= self._rail_lo_code or code >= self._rail_hi_code:
             return None
         b = self.baro
         v_sensor = (self.volts(code) - b.ref_V) / b.gain + b.offset_V

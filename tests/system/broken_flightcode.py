@@ -82,6 +82,10 @@ VARIANTS += [
         "roll follows its reference within 3 deg through the climb", "pitch held within 3 deg through the climb"}),
     _from_catalogue("est-baro-gate-never-reanchors", "fault-baro-shift", {
         "the estimate re-anchors to the barometer: estimate - baro altitude within 0.5 m from 3 s after the shift"}),
+    _from_catalogue("drv-baro-rail-exact-only", "fault-baro-wire", {
+        "no dip below 1.25 m", "the climb reaches pre-climb + 2 m, at most 0.75 m over",
+        "the estimate holds without the barometer: within 0.75 m of truth",
+        "the barometer taken back: mean of estimate - baro altitude within 0.5 m from 3 s after"}),
 ]
 
 #: runs the copied flight code: its tree first on sys.path, then flightcode's own main

@@ -13,7 +13,7 @@ from tests.system.conftest import explain
 pytestmark = [pytest.mark.system, pytest.mark.pty]
 
 
-@pytest.mark.parametrize("name", ["arm-idle", "climb-full-throttle", "fault-adc-garbage", "fault-baro-shift", "fault-imu-bit-errors", "fault-rc-bit-errors", "fault-rc-glitch"])
+@pytest.mark.parametrize("name", ["arm-idle", "climb-full-throttle", "fault-adc-garbage", "fault-baro-shift", "fault-baro-wire", "fault-imu-bit-errors", "fault-rc-bit-errors", "fault-rc-glitch"])
 async def test_reaction_scenario_passes_on_seed_2(fly, name: str) -> None:
     result = await fly(name, seed=2, keep_trace=False)
     assert result.end_reason is EndReason.COMPLETED, explain(result)

@@ -61,6 +61,22 @@ def test_rails_are_out_of_range() -> None:
     assert baro_code(90_000.0) == 0  # a field at ~1 km is outside the default window
 
 
+def test_codes_near_a_rail_are_no_pressure() -> None:
+    """An open input floats to a rail with noise, a saturated stage sits there: within
+    ``rail_margin_V`` (0.05 V = 41 codes) of either rail a code is refused, not a reading
+    80-500 m from the field (scenario fault-baro-wire)."""
+    chain = AnalogChain(5.0, BaroChainParams(), AccelChainParams())
+    margin = math.ceil(0.05 / (5.0 / 4096))
+    assert margin == 41
+    for code in (1, 7, margin, 4095 - margin, 4094):
+        assert chain.baro_pressure_Pa(code) is None, code
+    assert chain.baro_pressure_Pa(margin + 1) is not None
+    assert chain.baro_pressure_Pa(4094 - margin) is not None
+    exact = AnalogChain(5.0, BaroChainParams(rail_margin_V=0.0), AccelChainParams())
+    assert exact.baro_pressure_Pa(0) is None and exact.baro_pressure_Pa(4095) is None
+    assert exact.baro_pressure_Pa(1) is not None and exact.baro_pressure_Pa(4094) is not None
+
+
 def test_isa_altitude_matches_the_documented_table() -> None:
     # docs/protocols.md 3: 0 m 101.325 kPa, 500 m 95.461, 1000 m 89.875, 2000 m 79.495
     for h, p_kPa in ((0, 101.325), (500, 95.461), (1000, 89.875), (2000, 79.495)):
