@@ -42,7 +42,10 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from hil.plant.quat import to_matrix
+
 Vec3 = tuple[float, float, float]
+Vec4 = tuple[float, float, float, float]
 Mat3 = tuple[Vec3, Vec3, Vec3]
 State = list[float]
 Inputs = tuple[float, ...]  # 20 floats, see the module docstring
@@ -116,6 +119,49 @@ def rotor_hub_aero_B(
     )
 
 
+def body_drag_B(
+    sig: float, bx_mps: float, by_mps: float, bz_mps: float, lin: Vec3, quad: Vec3, cp_m: Vec3,
+) -> tuple[float, float, float, float, float, float]:
+    """Parasitic drag (N) on the CG's air-relative velocity ``b*_mps`` (body FRD), linear
+    plus quadratic per axis, scaled by the density ratio ``sig``, and its moment about the CG
+    from the centre of pressure ``cp_m`` (N m). Returns (Fx, Fy, Fz, Mx, My, Mz)."""
+    ex = -sig * (lin[0] + quad[0] * abs(bx_mps)) * bx_mps
+    ey = -sig * (lin[1] + quad[1] * abs(by_mps)) * by_mps
+    ez = -sig * (lin[2] + quad[2] * abs(bz_mps)) * bz_mps
+    cpx, cpy, cpz = cp_m
+    return ex, ey, ez, cpy * ez - cpz * ey, cpz * ex - cpx * ez, cpx * ey - cpy * ex
+
+
+def add_rotors_aero_B(
+    sd: float, sz: float, sf: float, hubs_m: tuple[Vec3, ...], o: Vec4,
+    bx_mps: float, by_mps: float, bz_mps: float, wx_radps: float, wy_radps: float, wz_radps: float,
+    u: Inputs, f_N: Vec3, m_Nm: Vec3,
+) -> tuple[float, float, float, float, float, float]:
+    """``f_N`` and ``m_Nm`` (body FRD, about the CG) plus the four rotors' H-forces and
+    flapping moments (:func:`rotor_hub_aero_B`; ``sd``, ``sz``, ``sf`` as there), rotor 0
+    first. ``hubs_m``: each hub relative to the CG; ``o``: rotor speeds (rad/s); ``b*_mps``:
+    the CG's air-relative velocity; ``w*_radps``: body rates; ``u``: the inputs, whose last
+    12 floats are the hubs' gusts. The sums are taken rotor by rotor in that order, as the
+    equations of motion always have."""
+    fx, fy, fz = f_N
+    mx, my, mz = m_Nm
+    g = 8
+    for i in range(4):
+        rx, ry, rz = hubs_m[i]
+        hx_, hy_, hz_, dmx, dmy, dmz = rotor_hub_aero_B(
+            sd, sz, sf, o[i], rx, ry, rz, bx_mps, by_mps, bz_mps, wx_radps, wy_radps, wz_radps,
+            u[g], u[g + 1], u[g + 2],
+        )
+        g += 3
+        fx += hx_
+        fy += hy_
+        fz += hz_
+        mx += dmx
+        my += dmy
+        mz += dmz
+    return fx, fy, fz, mx, my, mz
+
+
 def make_derivative(k: DynamicsConstants) -> Derivative:
     """Build ``f(x, u) -> dx/dt`` (a 17-tuple) with the constants bound in."""
     g = k.gravity_mps2
@@ -124,19 +170,15 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
     (ixx, ixy, ixz), (iyx, iyy, iyz), (izx, izy, izz) = k.inverse_inertia_B
     rx0, rx1, rx2, rx3 = k.rotor_x_m
     ry0, ry1, ry2, ry3 = k.rotor_y_m
-    rz0, rz1, rz2, rz3 = k.rotor_z_m
     kt0, kt1, kt2, kt3 = k.k_T
     kq0, kq1, kq2, kq3 = k.k_Q_signed
     jr0, jr1, jr2, jr3 = k.j_rotor_signed
     tu = 1.0 / k.tau_up_s
     td = 1.0 / k.tau_down_s
-    dlx, dly, dlz = k.linear_drag
-    dqx, dqy, dqz = k.quadratic_drag
-    kd = k.rotor_drag
-    kz = k.rotor_drag_z
-    kf = k.flapping
-    cpx, cpy, cpz = k.cp_m
+    lin, quad, cp = k.linear_drag, k.quadratic_drag, k.cp_m
+    kd, kz, kf = k.rotor_drag, k.rotor_drag_z, k.flapping
     rotor_aero = kd > 0.0 or kz > 0.0 or kf > 0.0
+    hubs = tuple(zip(k.rotor_x_m, k.rotor_y_m, k.rotor_z_m, strict=True))
     dax, day, daz = k.angular_drag
     ge_z0 = k.ge_z0_m
     ge_cut = k.ge_cutoff_m
@@ -144,7 +186,7 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
 
     def derivative(x: Sequence[float], u: Inputs) -> tuple[float, ...]:
         _, _, pz, vx, vy, vz, qw, qx, qy, qz, wx, wy, wz, o0, o1, o2, o3 = x
-        c0, c1, c2, c3, wn, we, wd, sig, g0x, g0y, g0z, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z = u
+        c0, c1, c2, c3, wn, we, wd, sig = u[0], u[1], u[2], u[3], u[4], u[5], u[6], u[7]
         # Motor lag, separate time constants up/down.
         d0 = (c0 - o0) * (tu if c0 > o0 else td)
         d1 = (c1 - o1) * (tu if c1 > o1 else td)
@@ -156,71 +198,18 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
         t1 = kt1 * o1 * o1 * kk
         t2 = kt2 * o2 * o2 * kk
         t3 = kt3 * o3 * o3 * kk
-        # R(q) for body -> NED.
-        xx, yy, zz = qx * qx, qy * qy, qz * qz
-        xy, xz, yz = qx * qy, qx * qz, qy * qz
-        wqx, wqy, wqz = qw * qx, qw * qy, qw * qz
-        r00 = 1.0 - 2.0 * (yy + zz)
-        r01 = 2.0 * (xy - wqz)
-        r02 = 2.0 * (xz + wqy)
-        r10 = 2.0 * (xy + wqz)
-        r11 = 1.0 - 2.0 * (xx + zz)
-        r12 = 2.0 * (yz - wqx)
-        r20 = 2.0 * (xz - wqy)
-        r21 = 2.0 * (yz + wqx)
-        r22 = 1.0 - 2.0 * (xx + yy)
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = to_matrix((qw, qx, qy, qz))  # body -> NED
         # Air-relative velocity of the CG in body axes, then body drag at the centre of pressure.
         ux, uy, uz = vx - wn, vy - we, vz - wd
         bx = r00 * ux + r10 * uy + r20 * uz
         by = r01 * ux + r11 * uy + r21 * uz
         bz = r02 * ux + r12 * uy + r22 * uz
-        ex = -sig * (dlx + dqx * abs(bx)) * bx
-        ey = -sig * (dly + dqy * abs(by)) * by
-        ez = -sig * (dlz + dqz * abs(bz)) * bz
-        mx = cpy * ez - cpz * ey
-        my = cpz * ex - cpx * ez
-        mz = cpx * ey - cpy * ex
+        ex, ey, ez, mx, my, mz = body_drag_B(sig, bx, by, bz, lin, quad, cp)
         fx, fy, fz = ex, ey, ez - (t0 + t1 + t2 + t3)
         if rotor_aero:
-            # Per rotor: hub air velocity (CG + w x r - local gust), H-force at the hub and its
-            # moment r x H, flapping moment; one call per rotor (a loop over tuples costs ~2x).
-            sd, sz, sf = sig * kd, sig * kz, sig * kf
-            hx_, hy_, hz_, dmx, dmy, dmz = rotor_hub_aero_B(
-                sd, sz, sf, o0, rx0, ry0, rz0, bx, by, bz, wx, wy, wz, g0x, g0y, g0z
-            )
-            fx += hx_
-            fy += hy_
-            fz += hz_
-            mx += dmx
-            my += dmy
-            mz += dmz
-            hx_, hy_, hz_, dmx, dmy, dmz = rotor_hub_aero_B(
-                sd, sz, sf, o1, rx1, ry1, rz1, bx, by, bz, wx, wy, wz, g1x, g1y, g1z
-            )
-            fx += hx_
-            fy += hy_
-            fz += hz_
-            mx += dmx
-            my += dmy
-            mz += dmz
-            hx_, hy_, hz_, dmx, dmy, dmz = rotor_hub_aero_B(
-                sd, sz, sf, o2, rx2, ry2, rz2, bx, by, bz, wx, wy, wz, g2x, g2y, g2z
-            )
-            fx += hx_
-            fy += hy_
-            fz += hz_
-            mx += dmx
-            my += dmy
-            mz += dmz
-            hx_, hy_, hz_, dmx, dmy, dmz = rotor_hub_aero_B(
-                sd, sz, sf, o3, rx3, ry3, rz3, bx, by, bz, wx, wy, wz, g3x, g3y, g3z
-            )
-            fx += hx_
-            fy += hy_
-            fz += hz_
-            mx += dmx
-            my += dmy
-            mz += dmz
+            fx, fy, fz, mx, my, mz = add_rotors_aero_B(
+                sig * kd, sig * kz, sig * kf, hubs, (o0, o1, o2, o3), bx, by, bz, wx, wy, wz, u,
+                (fx, fy, fz), (mx, my, mz))
         ax = (r00 * fx + r01 * fy + r02 * fz) * minv
         ay = (r10 * fx + r11 * fy + r12 * fz) * minv
         az = (r20 * fx + r21 * fy + r22 * fz) * minv + g
