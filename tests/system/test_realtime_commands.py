@@ -19,18 +19,28 @@ pytestmark = [pytest.mark.system, pytest.mark.pty]
 HOLD_US = 3000.0  #: the ADC's replies held this long: longer than a tick
 
 
+#: flights tried for one that waits on the held replies (see the test)
+TRIES = 5
+
+
 async def test_a_late_command_is_credited_to_no_sample(fly) -> None:
-    # every sample's command needs an ADC reply held 3 ms, so it comes after the next sample
-    result = await fly("hover", duration_s=1.0, mode=Mode.REALTIME, stress_adc_delay_us=HOLD_US)
-    assert result.end_reason is EndReason.COMPLETED, explain(result)
+    # every sample's command needs an ADC reply held 3 ms, so it comes after the next sample.
+    # On the host clock the flight code can also settle into the other phase: it skips the ADC
+    # read of a sample while a reply is still owed and answers that one at once, so no command
+    # waits and none is late (seen in about one 1 s flight in four). That flight says nothing
+    # about the crediting rule, so another is flown; the rule itself is proven on a scripted
+    # timeline in tests/unit/bench/test_realtime_tick.py.
+    for _ in range(TRIES):
+        result = await fly("hover", duration_s=1.0, mode=Mode.REALTIME, stress_adc_delay_us=HOLD_US)
+        assert result.end_reason is EndReason.COMPLETED, explain(result)
+        if result.timing["late_commands"] > 0:
+            break
     t = result.timing
-    # Every command needs a reply held 3 ms, so it comes after the next sample is out: the bench
+    # Every command that waited on a held reply comes after the next sample is out: the bench
     # counts it late and credits it to no sample. Crediting the first command after each sample
-    # (the defect this guards) would count none late. How many samples are answered at all, and
-    # how fast, depends on the host's speed (the flight code skips the ADC read of a sample while
-    # a reply is still owed, and answers that one at once): not asserted here. The crediting rule
-    # itself is proven on a scripted timeline in tests/unit/bench/test_realtime_tick.py.
-    assert t["late_commands"] > 0.25 * t["ticks"]
+    # (the defect this guards) would count none late in every flight. How many samples are
+    # answered at all, and how fast, depends on the host's speed: not asserted here.
+    assert t["late_commands"] > 0.25 * t["ticks"], f"no flight of {TRIES} waited on the held replies: {t}"
     assert result.log_path is not None
     ticks = read_topic(result.log_path, "/hil/timing/tick")
     answered = ticks["esc_arrival_host_ns"] > 0
