@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from emulators.analog import AnalogFrontEnd
+from emulators.analog.inverse import pressure_Pa_from_code
 from emulators.mcp3204 import quantize
 from hil.config import RIGS_DIR
 from hil.config.rig import load_rig
@@ -31,19 +32,17 @@ def measured_noise(seed: int, n_samples: int = 20_000) -> tuple[float, float]:
     env = rig.plant.environment
     p_Pa = isa_pressure_Pa(env.field_elevation_m + H_M, env.qnh_Pa)
     fe = AnalogFrontEnd(rig.analog, spawn_rngs(seed)["analog"])
-    codes = np.empty(n_samples)
+    p_read_Pa = np.empty(n_samples)
     for k in range(n_samples):
         t_ns = k * TICK_NS
         fe.update(t_ns, p_Pa, AT_REST, 15.0)
-        codes[k] = quantize(fe.volts(0, t_ns + TICK_NS // 25), 5.0)
-    c = codes[n_samples // 10:]  # past the chain's start-up
+        p_read_Pa[k] = pressure_Pa_from_code(quantize(fe.volts(0, t_ns + TICK_NS // 25), 5.0), rig.analog)
+    c = p_read_Pa[n_samples // 10:]  # past the chain's start-up
     c = c - c.mean()
     rho = float((c[1:] * c[:-1]).mean() / c.var())
-    stage = rig.analog.conditioning[0]
-    pa_per_code = 5.0 / 4096 / stage.gain / (rig.analog.baro.supply_V * 0.009) * 1000.0
     pa_per_m = isa_pressure_Pa(env.field_elevation_m + H_M - 0.5, env.qnh_Pa) - isa_pressure_Pa(
         env.field_elevation_m + H_M + 0.5, env.qnh_Pa)
-    return float(c.std()) * pa_per_code / pa_per_m, rho
+    return float(c.std()) / pa_per_m, rho
 
 
 def flight_r_baro_m2() -> float:
