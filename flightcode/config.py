@@ -128,12 +128,16 @@ def _check(file: str, cfg: FlightConfig) -> None:
         "modes.gesture_hold_s": cfg.modes.gesture_hold_s, "modes.landed_s": cfg.modes.landed_s,
         "modes.landed_vz_mps": cfg.modes.landed_vz_mps, "kf.baro_gate_chi2": cfg.kf.baro_gate_chi2,
         "plausibility.baro_max_step_Pa": cfg.plausibility.baro_max_step_Pa,
+        "plausibility.baro_flat_std_Pa": cfg.plausibility.baro_flat_std_Pa,
         "plausibility.accel_max_g": cfg.plausibility.accel_max_g,
         "plausibility.accel_xsens_tolerance_mps2": cfg.plausibility.accel_xsens_tolerance_mps2,
         "rc.capture.lock_frames": cfg.rc.capture.lock_frames, "rc.capture.stale_ms": cfg.rc.capture.stale_ms,
     }
     for key, value in positive.items():
         need(value > 0, key, f"must be > 0 (got {value})")
+    flat_n = cfg.plausibility.baro_flat_readings
+    need(flat_n == 0 or flat_n >= 2, "plausibility.baro_flat_readings",
+         f"must be 0 (off) or >= 2 (got {flat_n})")
     need(0.0 <= cfg.adc.baro.rail_margin_V < 0.25 * cfg.adc.vref_V, "adc.baro.rail_margin_V",
          f"must be >= 0 and < a quarter of vref_V (got {cfg.adc.baro.rail_margin_V})")
     non_negative = {

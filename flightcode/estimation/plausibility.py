@@ -41,6 +41,13 @@ class PlausibilityParams:
         baro_max_step_Pa: largest pressure change between consecutive readings, Pa (60 Pa:
             about 5 m of altitude in 2.5 ms, 9 sigma of the x16 chain's per-sample noise
             difference; a bit error in the top six bits of the code moves it further).
+        baro_flat_readings: readings in the flat-line window (40: 0.1 s at 400 Hz, short, as
+            the readings of a window that turns out flat were already fused); 0 turns the
+            test off.
+        baro_flat_std_Pa: readings whose standard deviation over that window is below this
+            are a flat line, Pa (1.5 Pa = 0.13 m: a live sensor moves 5.3 Pa a reading, and
+            its windows of 40 stayed above 3 Pa on the bench; a stuck one leaves the pin's
+            0.5-0.65 Pa, windows below 0.9 Pa).
         accel_max_g: largest believable specific force on any ADXL335 axis before the offset
             correction, g (5: the supply rails of a 3.3 V part at 330 mV/g).
         accel_xsens_tolerance_mps2: largest believable difference between the ADXL335's and
@@ -51,6 +58,8 @@ class PlausibilityParams:
     __pydantic_config__ = {"extra": "forbid"}
 
     baro_max_step_Pa: float = 60.0
+    baro_flat_readings: int = 40
+    baro_flat_std_Pa: float = 1.5
     accel_max_g: float = 5.0
     accel_xsens_tolerance_mps2: float = 3.0
 
@@ -58,7 +67,7 @@ class PlausibilityParams:
 class AdcPlausibility:
     """Judges each converted ADC reading; ``counters`` says how many were refused and why.
 
-    Counters: ``baro_out_of_range``, ``baro_step``, ``accel_out_of_range``,
+    Counters: ``baro_out_of_range``, ``baro_flat``, ``baro_step``, ``accel_out_of_range``,
     ``accel_disagrees_xsens`` (one per refused reading).
     """
 
@@ -66,6 +75,7 @@ class AdcPlausibility:
         self.params = params
         self._max_f_mps2 = params.accel_max_g * G0_MPS2
         self._p_prev_Pa: float | None = None
+        self._flat = FlatLine(params.baro_flat_readings, params.baro_flat_std_Pa) if params.baro_flat_readings else None
         self.counters: Counter[str] = Counter()
 
     @property
@@ -88,10 +98,18 @@ class AdcPlausibility:
             self.counters["baro_out_of_range"] += 1
             self._p_prev_Pa = None  # not a level to compare the next one with
             return None
+        if self._flat is not None and self._flat.add(p_Pa):
+            self.counters["baro_flat"] += 1
+            return None
         if prev is not None and abs(p_Pa - prev) > self.params.baro_max_step_Pa:
             self.counters["baro_step"] += 1
             return None
         return p_Pa
+
+    @property
+    def baro_flat(self) -> bool:
+        """True while the barometer's readings are a flat line (refused)."""
+        return self._flat is not None and self._flat.flat
 
     def accel_in_range(self, f_B_mps2: tuple[float, float, float]) -> bool:
         """True if every axis of the ADXL335 reading is within ``accel_max_g`` (counted if not)."""
@@ -107,3 +125,52 @@ class AdcPlausibility:
             return True
         self.counters["accel_disagrees_xsens"] += 1
         return False
+
+
+class FlatLine:
+    """Is a signal a flat line? The standard deviation of its last ``n`` values below
+    ``min_std`` (same unit as the values). O(1) a value: running sums over a ring, taken
+    relative to a reference value (no cancellation at 1e5 Pa) and summed afresh at every
+    turn of the ring (no drift over a flight).
+    """
+
+    def __init__(self, n: int, min_std: float) -> None:
+        if n < 2:
+            raise ValueError(f"a flat-line window needs at least 2 values, got {n}")
+        self._ring = [0.0] * n
+        self._i = 0
+        self._full = False
+        self._ref = 0.0
+        self._s1 = 0.0
+        self._s2 = 0.0
+        self._min_var = min_std * min_std
+        #: The last verdict of :meth:`add` (False until the window is full).
+        self.flat = False
+
+    def add(self, x: float) -> bool:
+        """Take value ``x``; True if the window (this value and the ``n - 1`` before) is flat."""
+        ring, n = self._ring, len(self._ring)
+        if self._i == 0 and self._full:  # a turn of the ring: sums afresh around today's level
+            self._ref = sum(ring) / n
+            self._s1 = sum(v - self._ref for v in ring)
+            self._s2 = sum((v - self._ref) ** 2 for v in ring)
+        elif self._i == 0 and not self._full:
+            self._ref = x
+        d_old = ring[self._i] - self._ref
+        d = x - self._ref
+        if self._full:
+            self._s1 -= d_old
+            self._s2 -= d_old * d_old
+        self._s1 += d
+        self._s2 += d * d
+        ring[self._i] = x
+        self._i += 1
+        if self._i == n:
+            self._i = 0
+            self._full = True
+        if not self._full:
+            self.flat = False
+            return False
+        mean = self._s1 / n
+        self.flat = self._s2 / n - mean * mean < self._min_var
+        return self.flat

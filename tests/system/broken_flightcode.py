@@ -86,6 +86,9 @@ VARIANTS += [
         "no dip below 1.25 m", "the climb reaches pre-climb + 2 m, at most 0.75 m over",
         "the estimate holds without the barometer: within 0.75 m of truth",
         "the barometer taken back: mean of estimate - baro altitude within 0.5 m from 3 s after"}),
+    _from_catalogue("est-baro-flat-check-off", "fault-baro-freeze", {
+        "the climb reaches pre-climb + 2 m, at most 0.75 m over",
+        "the estimate holds without the barometer: within 0.75 m of truth"}),
 ]
 
 #: runs the copied flight code: its tree first on sys.path, then flightcode's own main

@@ -27,6 +27,11 @@ zero_average_s = 0.1
 [modes]
 gesture_hold_s = 0.2
 landed_s = 0.2
+# The fake's barometer carries the pin's 0.5 mV of noise but not the sensor's own, so it would
+# be a flat line; the flat-line test is tested in estimation/test_plausibility.py and flown in
+# scenario fault-baro-freeze.
+[plausibility]
+baro_flat_readings = 0
 """
 Sticks = Callable[[float], "list[float] | None"]
 

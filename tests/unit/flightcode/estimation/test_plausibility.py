@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -14,7 +16,7 @@ from flightcode.drivers.analog import (
     AnalogChain,
     BaroChainParams,
 )
-from flightcode.estimation.plausibility import AdcPlausibility, PlausibilityParams
+from flightcode.estimation.plausibility import AdcPlausibility, FlatLine, PlausibilityParams
 
 CHAIN = AnalogChain(5.0, BaroChainParams(), AccelChainParams())
 #: The baro's code at a sea-level field (2.5 V on the pin with the default stage).
@@ -103,3 +105,69 @@ def test_limits_come_from_the_params() -> None:
     assert chk.baro_Pa(100_011.0) is None
     assert not chk.accel_in_range((0.0, 0.0, -2.1 * G0_MPS2)) and chk.accel_in_range((0.0, 0.0, -1.9 * G0_MPS2))
     assert not chk.accel_agrees(0.6, 0.0) and chk.accel_agrees(0.4, 0.0)
+
+
+# -- the barometer's flat-line test ---------------------------------------------------------------
+@settings(max_examples=200, deadline=None)
+@given(n=st.integers(2, 12), min_std=st.floats(0.1, 10.0),
+       xs=st.lists(st.floats(90_000.0, 110_000.0), min_size=1, max_size=60),
+       steps=st.lists(st.floats(-3.0, 3.0), min_size=1, max_size=60))
+def test_flat_line_is_the_windows_standard_deviation(n: int, min_std: float, xs: list[float],
+                                                     steps: list[float]) -> None:
+    """Every verdict is numpy's population std of the last n values against min_std (not yet
+    full: never flat), over levels of a whole pressure range and small wanderings."""
+    values = [x + s for x in xs[:1] for s in steps] + xs  # a quiet stretch, then jumps
+    det = FlatLine(n, min_std)
+    for i, v in enumerate(values):
+        flat = det.add(v)
+        if i + 1 < n:
+            assert flat is False
+            continue
+        std = float(np.std(values[i + 1 - n: i + 1]))
+        if abs(std - min_std) > 1e-6 * (1.0 + min_std):  # away from the bound's rounding
+            assert flat is (std < min_std), (i, std)
+        assert det.flat is flat
+
+
+def test_flat_line_window_needs_two_values() -> None:
+    with pytest.raises(ValueError, match="at least 2"):
+        FlatLine(1, 1.0)
+
+
+def _baro_chk() -> AdcPlausibility:
+    return AdcPlausibility(PlausibilityParams())
+
+
+def test_a_live_barometer_is_never_a_flat_line() -> None:
+    """5.3 Pa of noise per reading (the x16 chain), correlated from reading to reading as the
+    sensor's output filter makes it (lag-1 0.29), at a hover and through a climb: 200000
+    readings (8 min at 400 Hz), none refused."""
+    rng = np.random.default_rng(1)
+    chk, e, rho = _baro_chk(), 0.0, 0.29
+    for k in range(200_000):
+        e = rho * e + math.sqrt(1.0 - rho * rho) * 5.3 * rng.standard_normal()
+        level = 100_000.0 - (12.0 * 2.0 * min(1.0, max(0.0, (k - 100_000) / 800.0)))  # a 2 m climb
+        assert chk.baro_Pa(level + e) is not None or chk.counters["baro_step"], k
+    assert chk.counters["baro_flat"] == 0
+
+
+def test_a_stuck_barometer_is_refused_until_it_moves_again() -> None:
+    """A held output leaves the pin's noise (0.3 code, 0.5 Pa) on the code: refused from the
+    window's end on; live readings are taken again at once."""
+    rng = np.random.default_rng(2)
+    chk = _baro_chk()
+    n = PlausibilityParams().baro_flat_readings
+    live = [100_000.0 + 5.3 * rng.standard_normal() for _ in range(200)]
+    stuck = [100_003.0 + 0.5 * rng.standard_normal() for _ in range(400)]
+    assert all(chk.baro_Pa(p) is not None for p in live)
+    taken = [chk.baro_Pa(p) is not None for p in stuck]
+    assert all(taken[: n // 2]) and not any(taken[n:]) and chk.baro_flat
+    assert chk.counters["baro_flat"] >= len(stuck) - n
+    back = [chk.baro_Pa(100_024.0 + 5.3 * rng.standard_normal()) for _ in range(50)]  # 2 m higher, live
+    assert all(p is not None for p in back[1:]) and not chk.baro_flat
+
+
+def test_flat_line_test_off() -> None:
+    chk = AdcPlausibility(PlausibilityParams(baro_flat_readings=0))
+    assert all(chk.baro_Pa(100_000.0) == 100_000.0 for _ in range(500))
+    assert chk.refused == 0 and not chk.baro_flat
