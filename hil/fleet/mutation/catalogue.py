@@ -9,6 +9,7 @@ repository root given by the caller) and lists ``[[mutant]]`` entries: ``id``, `
 from __future__ import annotations
 
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Literal
 
@@ -98,8 +99,11 @@ def load_catalogue(path: Path) -> Catalogue:
         raise _explain(path, exc) from exc
 
 
-def load_equivalents(path: Path | None, known: set[str] | None = None) -> dict[str, str]:
-    """id -> reason. ``known``: ids that exist (an equivalent of an unknown mutant is an error)."""
+def load_equivalents(path: Path | None, known: set[str] | None = None,
+                     more_known: Callable[[], set[str]] | None = None) -> dict[str, str]:
+    """id -> reason. ``known``: ids that exist (an equivalent of an unknown mutant is an error);
+    ``more_known``: asked only when some id is not in ``known`` (the operator mutants a draw
+    could give, which cost a parse of the tree to list)."""
     if path is None or not path.exists():
         return {}
     try:
@@ -109,6 +113,8 @@ def load_equivalents(path: Path | None, known: set[str] | None = None) -> dict[s
     out = {e.id: e.reason for e in eq.equivalent}
     if known is not None:
         unknown = sorted(set(out) - known)
+        if unknown and more_known is not None:
+            unknown = sorted(set(unknown) - more_known())
         if unknown:
             raise ConfigError(f"{path}: equivalent.id: no such mutant: {', '.join(unknown)}")
     return out

@@ -12,6 +12,7 @@ from hil import clock
 from hil.config import ConfigError
 from hil.fleet.campaign import campaign_dir
 from hil.fleet.campaign_case import finite
+from hil.fleet.mutation import operators
 from hil.fleet.mutation import report as rep
 from hil.fleet.mutation.catalogue import load_catalogue, load_equivalents
 from hil.fleet.mutation.runner import (
@@ -51,7 +52,8 @@ def _plan(o: dict[str, Any]) -> tuple[Plan, dict[str, str], str]:
     if not mutants:
         raise ConfigError("no mutants to fly")
     eq_path = o["equivalents"] or cat_path.with_name(f"{cat_path.stem}-equivalents.toml")
-    eq = load_equivalents(eq_path, {m.id for m in mutants} | {m.id for m in cat.mutant})
+    eq = load_equivalents(eq_path, {m.id for m in mutants} | {m.id for m in cat.mutant},
+                          lambda: {site.id for site in operators.sites(tree, cat.target.operator_modules)})
     plan = Plan(suite, tree, mutants, list(range(1, o["seeds"] + 1)), mode=o["mode"], matrix=o["matrix"],
                 keep_kills=o["keep_kills"], workers=o["workers"], scheduler=o["scheduler"], executor=o["executor"])
     return plan, eq, cat.target.name

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from hil.config import ConfigError
+from hil.fleet.mutation import operators
 from hil.fleet.mutation.catalogue import load_catalogue, load_equivalents
 from hil.fleet.mutation.edits import Edit, edited, snapshot
 
@@ -79,7 +80,11 @@ def test_the_flight_code_is_not_edited_and_has_nothing_for_mutation(cat, tree) -
 
 
 def test_shipped_equivalents_name_known_mutants(cat) -> None:
-    load_equivalents(EQUIVALENTS, {m.id for m in cat.mutant})
+    """Catalogue entries by id; operator mutants by a site a draw over today's tree can give
+    (their ids number the sites of a module, so an edit before one moves it)."""
+    sites = {site.id for site in operators.sites(ROOT / cat.target.tree, cat.target.operator_modules)}
+    eq = load_equivalents(EQUIVALENTS, {m.id for m in cat.mutant}, lambda: sites)
+    assert eq and all(k in sites or k in {m.id for m in cat.mutant} for k in eq)
 
 
 def _write(tmp_path: Path, body: str) -> Path:
@@ -136,4 +141,11 @@ def test_equivalents_need_a_reason_and_a_known_mutant(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="no such mutant: zz"):
         load_equivalents(p, {"a-b"})
     assert load_equivalents(p, {"zz"}) == {"zz": "no flight can tell it from the original code"}
+    asked: list[int] = []
+    assert load_equivalents(p, {"a-b"}, lambda: asked.append(1) or {"zz"}) == {  # type: ignore[func-returns-value]
+        "zz": "no flight can tell it from the original code"}
+    assert asked == [1]
+    assert load_equivalents(p, {"zz"}, lambda: asked.append(2) or set()) and asked == [1]  # type: ignore[func-returns-value]
+    with pytest.raises(ConfigError, match="no such mutant: zz"):
+        load_equivalents(p, {"a-b"}, set)
     assert load_equivalents(tmp_path / "missing.toml", {"a-b"}) == {}
