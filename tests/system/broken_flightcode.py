@@ -86,6 +86,8 @@ VARIANTS += [
         "no dip below 1.25 m", "the climb reaches pre-climb + 2 m, at most 0.75 m over",
         "the estimate holds without the barometer: within 0.75 m of truth",
         "the barometer taken back: mean of estimate - baro altitude within 0.5 m from 3 s after"}),
+    _from_catalogue("ctl-yaw-integral-cleared-at-centre", "fault-motor-70", {
+        "heading held: mean body yaw rate within 1.5 deg/s, 15-20 s"}),
     _from_catalogue("est-baro-flat-check-off", "fault-baro-freeze", {
         "the climb reaches pre-climb + 2 m, at most 0.75 m over",
         "the estimate holds without the barometer: within 0.75 m of truth"}),
