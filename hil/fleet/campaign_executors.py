@@ -3,8 +3,8 @@ cluster or a scheduler address).
 
 Each executor hands every finished case's result to a callback as it arrives, turns a case it
 lost (its worker died, the executor failed it) into a failed result (:func:`failure`), and on
-Ctrl-C raises the campaign's stop flag, cancels the queued cases and waits for the running
-ones to finalize their logs. Both return (interrupted, cases cancelled).
+Ctrl-C or SIGTERM raises the campaign's stop flag, cancels the queued cases and waits for the
+running ones to finalize their logs. Both return (interrupted, cases cancelled).
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ import itertools
 import multiprocessing
 import os
 import signal
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +43,27 @@ def failure(case: dict[str, Any], end_reason: str, message: str) -> dict[str, An
             "overrides": overrides, "passed": False, "end_reason": end_reason, "message": message,
             "criteria": [], "timing": {}, "sim_s": 0.0, "flight_returncode": None, "log": None,
             "returncode": None, "wall_s": None}
+
+
+@contextlib.contextmanager
+def sigterm_as_ctrl_c() -> Iterator[None]:
+    """Within: SIGTERM (``kill``, a CI runner cancelling the job, a batch system's time limit)
+    stops a campaign the way Ctrl-C does: the stop flag goes up, the running cases finalize
+    their logs and the workers remove their temporary trees. Python's default ends the client
+    at once, and the cases' processes fly on as orphans with their trees left behind.
+    Signal handlers live in the main thread; elsewhere this does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _ignore_sigint() -> None:  # pool workers: Ctrl-C is the campaign's to handle
@@ -97,14 +119,15 @@ def run_pool(cases: list[dict[str, Any]], workers: int, case_fn: CaseFn, handle:
     """Stdlib process pool. A worker that dies breaks the pool and every unfinished case with
     it; those cases are then re-run one per fresh pool, so only the culprit fails ("worker
     died") and the others get their result. Returns (interrupted, cancelled)."""
-    interrupted, cancelled, broken = _pool_round(cases, workers, case_fn, handle, stop_file)
-    for i, case in enumerate(broken):
-        if interrupted:
-            return True, cancelled + len(broken) - i
-        interrupted, cancelled, again = _pool_round([case], 1, case_fn, handle, stop_file)
-        if again:
-            handle(failure(case, "worker died", "its worker process died (run alone in a fresh pool)"))
-    return interrupted, cancelled
+    with sigterm_as_ctrl_c():
+        interrupted, cancelled, broken = _pool_round(cases, workers, case_fn, handle, stop_file)
+        for i, case in enumerate(broken):
+            if interrupted:
+                return True, cancelled + len(broken) - i
+            interrupted, cancelled, again = _pool_round([case], 1, case_fn, handle, stop_file)
+            if again:
+                handle(failure(case, "worker died", "its worker process died (run alone in a fresh pool)"))
+        return interrupted, cancelled
 
 
 def local_cluster_security() -> Any:
@@ -132,6 +155,12 @@ def start_local_cluster(workers: int, **kwargs: Any) -> Any:
 def run_dask(cases: list[dict[str, Any]], workers: int, scheduler: str | None, case_fn: CaseFn, handle: Handle,
              stop_file: Path, tag: str) -> tuple[bool, int]:
     """Dask distributed: a LocalCluster of ``workers`` processes, or the cluster at ``scheduler``."""
+    with sigterm_as_ctrl_c():
+        return _run_dask(cases, workers, scheduler, case_fn, handle, stop_file, tag)
+
+
+def _run_dask(cases: list[dict[str, Any]], workers: int, scheduler: str | None, case_fn: CaseFn, handle: Handle,
+              stop_file: Path, tag: str) -> tuple[bool, int]:
     import logging
 
     from distributed import Client, KilledWorker, as_completed, wait

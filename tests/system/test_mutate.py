@@ -5,7 +5,12 @@ the JSON and the kill matrix say so, and no temporary copy is left behind."""
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import sys
 import tempfile
+import threading
 from pathlib import Path
 
 import pytest
@@ -50,3 +55,48 @@ def test_mutate_kills_one_and_reports_a_survivor(tmp_path: Path, monkeypatch: py
     assert tempfile.gettempdir() == str(scratch)
     assert not list(scratch.glob(TMP_PREFIX + "*"))
     assert b"1_000_000" not in (ROOT / "flightcode" / "telemetry.py").read_bytes()
+
+
+def _processes_mentioning(text: str) -> list[str]:
+    """Command lines of live processes that mention ``text`` (from /proc)."""
+    found = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            args = cmdline.read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:  # gone meanwhile
+            continue
+        if text in args:
+            found.append(args)
+    return found
+
+
+@pytest.mark.timeout(300)
+def test_sigterm_stops_mutate_like_ctrl_c_and_leaves_nothing_behind(tmp_path: Path) -> None:
+    """SIGTERM (a CI runner cancelling the job) while a flight is under way on the default Dask
+    executor: exit 130 "interrupted", no copy of the tree left, no flight left running. Before
+    SIGTERM was taken as Ctrl-C, the client died at once, the running case flew on as an
+    orphan and its copy stayed in the temporary directory."""
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    hil = Path(sys.executable).with_name("hil")
+    cmd = [str(hil), "mutate", "-s", str(ROOT / "rigs" / "scenarios" / "hover.toml"), "--only", "tel-time-units",
+           "--seeds", "1", "--workers", "1", "--min-score", "0", "--keep-kills", "--out", str(tmp_path / "out")]
+    proc = subprocess.Popen(cmd, cwd=ROOT, env={**os.environ, "TMPDIR": str(scratch)}, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        flying = threading.Event()
+        for _ in range(2400):  # bounded poll of the file system (up to 120 s): a log being written
+            if list(scratch.glob(TMP_PREFIX + "*/logs/*.mcap.part")) or proc.poll() is not None:
+                break
+            flying.wait(0.05)
+        assert proc.poll() is None, proc.communicate()[0]
+        proc.send_signal(signal.SIGTERM)
+        text, _ = proc.communicate(timeout=180)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130, text
+    assert "interrupted" in text
+    assert not list(scratch.glob(TMP_PREFIX + "*")), text
+    assert not _processes_mentioning(str(scratch)), text

@@ -159,14 +159,17 @@ def _wait_for(path_glob: tuple[Path, str], timeout_s: float = 60.0) -> None:
     raise AssertionError(f"no {pattern} in {directory}")
 
 
-def test_ctrl_c_stops_the_running_case_cancels_the_rest_and_still_writes_the_results(tmp_path: Path) -> None:
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_ctrl_c_stops_the_running_case_cancels_the_rest_and_still_writes_the_results(tmp_path: Path, sig: int) -> None:
+    """Ctrl-C, and SIGTERM (a CI runner cancelling the job) the same way: before SIGTERM was
+    taken as Ctrl-C, the client died at once and the running case flew on as an orphan."""
     path = _campaign_file(tmp_path, 'seeds = [1, 2, 3]\nworkers = 1\nkeep_logs = "failed"\n')
 
     def interrupt_once_seed_2_flies(result: dict[str, Any]) -> None:
         if result["seed"] == 1:
             run_dirs = list(tmp_path.glob("t-*"))
             _wait_for((run_dirs[0] / "logs", "0001_*.mcap.part"))
-            os.kill(os.getpid(), signal.SIGINT)  # what Ctrl-C in the terminal does to the campaign
+            os.kill(os.getpid(), sig)  # what Ctrl-C in the terminal (or a job's cancel) does to the campaign
 
     run = run_campaign(load_campaign(path), executor="process", out_dir=tmp_path, console=_quiet(),
                        on_result=interrupt_once_seed_2_flies, case_fn=fake.first_fake_then_real)
