@@ -88,6 +88,11 @@ VARIANTS += [
         "the barometer taken back: mean of estimate - baro altitude within 0.5 m from 3 s after"}),
     _from_catalogue("ctl-yaw-integral-cleared-at-centre", "fault-motor-70", {
         "heading held: mean body yaw rate within 1.5 deg/s, 15-20 s"}),
+    _from_catalogue("drv-adc-accel-xy-swapped", "transit", {
+        "height held in forward flight: no dip below 1.25 m", "height held in forward flight: at most 2.75 m",
+        "altitude estimate: RMS error against truth at most 0.25 m"}),
+    _from_catalogue("est-accel-body-as-vertical", "transit", {
+        "height held in forward flight: at most 2.75 m", "altitude estimate: RMS error against truth at most 0.25 m"}),
     _from_catalogue("est-baro-flat-check-off", "fault-baro-freeze", {
         "the climb reaches pre-climb + 2 m, at most 0.75 m over",
         "the estimate holds without the barometer: within 0.75 m of truth"}),
