@@ -93,6 +93,8 @@ VARIANTS += [
         "altitude estimate: RMS error against truth at most 0.25 m"}),
     _from_catalogue("est-accel-body-as-vertical", "transit", {
         "height held in forward flight: at most 2.75 m", "altitude estimate: RMS error against truth at most 0.25 m"}),
+    _from_catalogue("est-euler-rate-no-coupling", "transit", {
+        "roll follows its reference through the transit and turn (RMS 0.5 deg, as attitude-0p2hz)"}),
     _from_catalogue("est-baro-flat-check-off", "fault-baro-freeze", {
         "the climb reaches pre-climb + 2 m, at most 0.75 m over",
         "the estimate holds without the barometer: within 0.75 m of truth"}),
