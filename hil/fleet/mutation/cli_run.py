@@ -12,7 +12,6 @@ from hil import clock
 from hil.config import ConfigError
 from hil.fleet.campaign import campaign_dir
 from hil.fleet.campaign_case import finite
-from hil.fleet.campaign_executors import sigterm_as_ctrl_c
 from hil.fleet.mutation import operators
 from hil.fleet.mutation import report as rep
 from hil.fleet.mutation.catalogue import load_catalogue, load_equivalents
@@ -94,16 +93,6 @@ def run(o: dict[str, Any], console: Console | None = None) -> int:
     out.print(f"hil mutate {name}: {len(plan.mutants)} mutants x {len(plan.suite.scenarios)} scenarios "
               f"(excluded: {', '.join(plan.suite.excluded) or 'none'}) on {where(plan)} -> {cdir}", highlight=False)
     t0 = clock.monotonic_ns()
-    try:
-        with sigterm_as_ctrl_c():  # between the phases too, not only while cases fly
-            return _fly(out, o, plan, eq, name, files, rig, all_diffs, cdir, stop_file, t0)
-    except KeyboardInterrupt:  # a second one while the first was being handled
-        out.print("interrupted")
-        return 130
-
-
-def _fly(out: Console, o: dict[str, Any], plan: Plan, eq: dict[str, str], name: str, files: dict[str, bytes],
-         rig: dict[str, bytes], all_diffs: dict[str, str], cdir: Path, stop_file: Path, t0: int) -> int:
     try:
         n_base = len(plan.suite.scenarios) * len(plan.seeds)
         base = run_baseline(plan, files, rig, stop_file, _progress(out, n_base, "baseline", cdir / "baseline.jsonl"))

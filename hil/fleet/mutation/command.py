@@ -42,9 +42,15 @@ def mutate(
     campaign stops. Exit status: 0 every target met (--min-score, --min-operator-score); 1 one is not; 2 bad input or a baseline
     failure (named); 130 interrupted.
     """
+    from hil.fleet.campaign_executors import sigterm_as_ctrl_c
     from hil.fleet.mutation.cli_run import run
 
-    raise typer.Exit(run(dict(locals())))
+    options = dict(locals())
+    # SIGTERM (a CI runner's cancel) between the baseline and the mutants too, not only while
+    # cases fly (the executors take it there)
+    with sigterm_as_ctrl_c():
+        code = run(options)
+    raise typer.Exit(code)
 
 
 __all__: list[Any] = ["mutate"]
