@@ -341,6 +341,8 @@ class FakeMaestro:
 
     def __init__(self, port: FakeSerial) -> None:
         self.pulses_us = [0.0] * 4
+        #: pulses after each command, us (index 0: the boot command)
+        self.history: list[list[float]] = []
         self.commands = 0
         self.bad = 0
         port.on_write = self._on_write
@@ -352,6 +354,7 @@ class FakeMaestro:
         n, first = data[1], data[2]
         for i in range(n):
             self.pulses_us[first + i] = (data[3 + 2 * i] | (data[4 + 2 * i] << 7)) / 4.0
+        self.history.append(list(self.pulses_us))
         self.commands += 1
 
 
@@ -422,12 +425,17 @@ class FakeWorld:
                  rc_frontend: str = "capture", seed: int = 1, motor_tau_s: float = 0.0,
                  accel_zero_g_error_V: tuple[float, float, float] = (0.0, 0.0, 0.0),
                  baro_ground_effect_m: float = 0.0, thrust_ground_effect_gain: float = 0.0,
-                 mass_kg: float = 1.1) -> None:
+                 mass_kg: float = 1.1, baro_noise_V: float = 0.24e-3) -> None:
         #: wall clock of the lockstep: a tick per sample, a read timeout per starved ADC read
         self.clock = FakeClock()
         self.ports = {name: FakeSerial(name, self.clock, 0.02 if name == "adc" else 0.0)
                       for name in ("imu", "adc", "rc", "esc", "telemetry")}
         self.rng = np.random.default_rng(seed)
+        #: the MPX5100AP's own output noise, V rms at the sensor (the bench's filtered 0.5 mV
+        #: comes out at 0.24 mV a sample: 3.1 codes after the x16 stage), from its own stream
+        #: so that the other draws are as they were without it
+        self.baro_noise_V = baro_noise_V
+        self._baro_rng = np.random.default_rng([seed, 1])
         self.imu = FakeXsens(self.ports["imu"], legacy=legacy_imu)
         self.adc = FakeBusPirate(self.ports["adc"], self._adc_code)
         self.rc = (FakeCaptureRc(self.ports["rc"], sticks) if rc_frontend == "capture"
@@ -509,7 +517,7 @@ class FakeWorld:
             wash_m = self.baro_ground_effect_m * sum(self.thrusts_N()) / (self.M_KG * G) * math.exp(-self.plant.z_m / 0.5)
             h = self.FIELD_ALT_M + self.plant.z_m - wash_m + self.baro_offset_m
             p_kpa = 101.325 * (1.0 - 2.25577e-5 * h) ** 5.25588
-            v = 5.0 * (0.009 * p_kpa - 0.095)
+            v = 5.0 * (0.009 * p_kpa - 0.095) + self._baro_rng.normal(0.0, self.baro_noise_V)
             v_adc = 16.0 * (v - 3.928375) + self.rng.normal(0.0, 0.0005)
         else:
             # ADXL335 flat, component side up: sensor (X, Y, Z) = (x_B, -y_B, -z_B).
