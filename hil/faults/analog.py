@@ -1,5 +1,5 @@
 """Analog sensor faults: barometer and ADXL335 bias, drift, scale, noise, freeze, saturation,
-the baro ground effect. (The ADC's own faults, inputs and reference, are hil/faults/adc.py.)
+a blocked static port, the baro ground effect. (The ADC's own faults, inputs and reference, are hil/faults/adc.py.)
 
 They use the analog front-end's hooks (``set_baro_fault``, ``set_accel_fault``, combined by
 composers.BaroComposer / AccelComposer). Accelerometer vectors are in body axes (FRD),
@@ -134,6 +134,28 @@ class BaroFreeze(_BaroFault[NoParams]):
 
     def baro_terms(self, t_ns: int) -> BaroFault:
         return BaroFault(frozen=True)
+
+
+class BaroPortBlocked(_BaroFault[NoParams]):
+    """The static port is blocked (water, an insect, tape left on after washing): the sensor
+    sees the air trapped at t_s whatever the vehicle does, and its own output noise goes on.
+
+    Unlike baro.freeze the reading is not a flat line, so a flight code's flat-line test
+    passes it; only the barometer's disagreement with the vehicle's motion shows it. The
+    trapped pressure is the port's at t_s; a sensor bias, drift or scale error (the other
+    baro.* kinds) still shows on top.
+    """
+
+    kind = "baro.port_blocked"
+    Params = NoParams
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        self._trapped_Pa = self.env.devices.sensors.p_static_Pa
+        return super().apply(t_ns)
+
+    def baro_terms(self, t_ns: int) -> BaroFault:
+        # an offset that cancels every pressure change at the port since t_s
+        return BaroFault(bias_Pa=self._trapped_Pa - self.env.devices.sensors.p_static_Pa)
 
 
 class BaroGroundEffectParams(FaultParams):
@@ -286,6 +308,6 @@ class AccelSaturation(_AccelFault[NoParams]):
 
 
 FAULTS: tuple[type[Fault[Any]], ...] = (
-    BaroBias, BaroDrift, BaroScale, BaroNoise, BaroFreeze, BaroGroundEffect,
+    BaroBias, BaroDrift, BaroScale, BaroNoise, BaroFreeze, BaroPortBlocked, BaroGroundEffect,
     AccelBias, AccelDrift, AccelScale, AccelNoise, AccelFreeze, AccelSaturation,
 )

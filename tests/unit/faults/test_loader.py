@@ -43,6 +43,7 @@ VALID: dict[str, dict[str, Any]] = {
     "baro.scale": {"scale": 1.01},
     "baro.noise": {"noise_factor": 3.0},
     "baro.freeze": {},
+    "baro.port_blocked": {},
     "baro.ground_effect": {},
     "accel.bias": {"bias_B_mps2": [0.5, 0.0, 0.0]},
     "accel.drift": {"drift_B_mps2_per_s": [0.0, 0.0, 0.1]},

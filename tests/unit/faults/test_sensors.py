@@ -168,6 +168,27 @@ async def test_baro_freeze_holds_the_reading_through_a_pressure_change(rig: Rig)
     assert abs(np.median(f[rows(0.16, 0.2)]) - np.median(t[rows(0.16, 0.2)])) <= 1  # released
 
 
+async def test_baro_port_blocked_hides_a_climb_but_not_the_sensor_noise(rig: Rig) -> None:
+    # Both benches climb 10 m at 0.1 s (about 118 Pa less at the port); the blocked port
+    # (0.05-0.2 s) keeps the trapped pressure, with the live sensor's noise, unlike baro.freeze.
+    faulty = Bench(rig, load_faults([{"kind": "baro.port_blocked", "t_s": 0.05, "duration_s": 0.15}], rig, source="t"))
+    twin = Bench(rig)
+    codes = []
+    for b in (faulty, twin):
+        await adc_enter_spi(b)
+        first = await adc_series(b, (0,), 40)
+        b.devices.plant.set_kinematic_state((0.0, 0.0, -10.0))
+        codes.append(np.array(first + await adc_series(b, (0,), 80))[:, 0])
+    f, t = (pressures(rig, c) for c in codes)
+    lsb = 1.8  # Pa per code at gain 16
+    assert np.median(t[rows(0.0, 0.1)]) - np.median(t[rows(0.12, 0.2)]) > 100  # the climb, seen
+    assert abs(np.median(f[rows(0.12, 0.2)]) - np.median(f[rows(0.0, 0.1)])) < 2 * lsb  # hidden
+    # not a flat line (from 0.11 s: the fault follows the port a tick late, and this climb is
+    # a jump of 10 m in one tick)
+    assert np.std(f[rows(0.11, 0.2)]) > 0.5 * np.std(t[rows(0.11, 0.2)]) > lsb
+    assert abs(np.median(f[rows(0.22, 0.3)]) - np.median(t[rows(0.22, 0.3)])) < 2 * lsb  # released
+
+
 async def test_baro_ground_effect_only_near_the_ground(rig: Rig) -> None:
     raw = [{"kind": "baro.ground_effect", "t_s": 0.0, "error_at_ground_Pa": 60.0, "decay_height_m": 0.5}]
     f, c, _ = await adc_twins(rig, raw, 40, channels=(0,))
