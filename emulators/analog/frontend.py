@@ -55,12 +55,15 @@ N_CHANNELS = 4
 
 @dataclass(frozen=True)
 class BaroFault:
-    """p_sensed = p * scale + bias_Pa; sensor noise x noise_factor; frozen holds the output."""
+    """p_sensed = p * scale + bias_Pa; sensor noise x noise_factor; frozen holds the output;
+    port_blocked holds p, the pressure at the port, at its value when the port was blocked
+    (the sensor and its noise go on)."""
 
     bias_Pa: float = 0.0
     scale: float = 1.0
     noise_factor: float = 1.0
     frozen: bool = False
+    port_blocked: bool = False
 
 
 @dataclass(frozen=True)
@@ -102,6 +105,8 @@ class AnalogFrontEnd:
         self._steps_sensor: tuple[TwoStageStep, ...] = ()  # per signal: the sensor stage
         self.baro_fault = BaroFault()
         self.accel_fault = AccelFault()
+        self._p_last_Pa = P_SEA_LEVEL_PA  # the port's pressure at the last update
+        self._p_trapped_Pa: float | None = None  # held while the port is blocked
         self._stuck: list[float | None] = [None] * N_CHANNELS
         self._open = [False] * N_CHANNELS
         self._open_from: list[tuple[int, float] | None] = [None] * N_CHANNELS  # (t_ns, V) drift start
@@ -125,6 +130,7 @@ class AnalogFrontEnd:
         ``p_Pa`` static pressure at the sensor port, ``f_B_mps2`` specific force in body
         axes (FRD, m/s^2, (0, 0, -9.81) at rest), ``T_C`` sensor temperature.
         """
+        self._p_last_Pa = p_Pa
         u = self._static(p_Pa, f_B_mps2, T_C)
         if self._t_ns is None:
             self._init_state(u)
@@ -225,10 +231,16 @@ class AnalogFrontEnd:
         self._open_from[ch] = None
 
     def set_baro_fault(
-        self, bias_Pa: float = 0.0, scale: float = 1.0, noise_factor: float = 1.0, frozen: bool = False
+        self, bias_Pa: float = 0.0, scale: float = 1.0, noise_factor: float = 1.0, frozen: bool = False,
+        port_blocked: bool = False,
     ) -> None:
-        """Barometer fault, from the next update (frozen: output held from the next sample)."""
-        self.baro_fault = BaroFault(bias_Pa, scale, noise_factor, frozen)
+        """Barometer fault, from the next update (frozen: output held from the next sample;
+        port_blocked: the port's pressure held at the last update's)."""
+        self.baro_fault = BaroFault(bias_Pa, scale, noise_factor, frozen, port_blocked)
+        if not port_blocked:
+            self._p_trapped_Pa = None
+        elif self._p_trapped_Pa is None:
+            self._p_trapped_Pa = self._p_last_Pa
         self._unfreeze(0, frozen)
 
     def set_accel_fault(
@@ -253,6 +265,8 @@ class AnalogFrontEnd:
 
     def _static(self, p_Pa: float, f_B_mps2: Sequence[float], T_C: float) -> list[float]:
         bf, af = self.baro_fault, self.accel_fault
+        if self._p_trapped_Pa is not None:
+            p_Pa = self._p_trapped_Pa
         baro_V = self.baro.static_V(p_Pa * bf.scale + bf.bias_Pa, T_C)
         scale, bias = af.scale, af.bias_mps2
         f = (float(f_B_mps2[0]) * scale + bias[0], float(f_B_mps2[1]) * scale + bias[1],

@@ -1,5 +1,6 @@
 """Analog sensor faults: barometer and ADXL335 bias, drift, scale, noise, freeze, saturation,
-a blocked static port, the baro ground effect. (The ADC's own faults, inputs and reference, are hil/faults/adc.py.)
+a blocked static port, the baro ground effect. (The ADC's own faults, inputs and reference,
+are hil/faults/adc.py.)
 
 They use the analog front-end's hooks (``set_baro_fault``, ``set_accel_fault``, combined by
 composers.BaroComposer / AccelComposer). Accelerometer vectors are in body axes (FRD),
@@ -51,7 +52,8 @@ class _BaroFault(Fault[P]):
 
 
 def _baro_dict(b: BaroFault) -> dict[str, Any]:
-    return {"bias_Pa": b.bias_Pa, "scale": b.scale, "noise_factor": b.noise_factor, "frozen": b.frozen}
+    return {"bias_Pa": b.bias_Pa, "scale": b.scale, "noise_factor": b.noise_factor, "frozen": b.frozen,
+            "port_blocked": b.port_blocked}
 
 
 class BaroBiasParams(FaultParams):
@@ -142,20 +144,15 @@ class BaroPortBlocked(_BaroFault[NoParams]):
 
     Unlike baro.freeze the reading is not a flat line, so a flight code's flat-line test
     passes it; only the barometer's disagreement with the vehicle's motion shows it. The
-    trapped pressure is the port's at t_s; a sensor bias, drift or scale error (the other
-    baro.* kinds) still shows on top.
+    analog front-end holds the port's pressure; the sensor's own errors (the other baro.*
+    kinds) still show on top.
     """
 
     kind = "baro.port_blocked"
     Params = NoParams
 
-    def apply(self, t_ns: int) -> dict[str, Any]:
-        self._trapped_Pa = self.env.devices.sensors.p_static_Pa
-        return super().apply(t_ns)
-
     def baro_terms(self, t_ns: int) -> BaroFault:
-        # an offset that cancels every pressure change at the port since t_s
-        return BaroFault(bias_Pa=self._trapped_Pa - self.env.devices.sensors.p_static_Pa)
+        return BaroFault(port_blocked=True)
 
 
 class BaroGroundEffectParams(FaultParams):

@@ -5,7 +5,7 @@ increase, two thrust losses on one rotor). Each device hook takes the *combined*
 so every shared target has a composer: faults add and remove themselves, and the composer
 pushes the combination to the device whenever it changes:
 
-* biases and offsets add, scale and noise factors multiply, "frozen"/"saturate" are ORed;
+* biases and offsets add, scale and noise factors multiply, "frozen"/"saturate"/"port_blocked" are ORed;
 * thrust factors of one rotor multiply, battery series resistances add;
 * loss probabilities combine as independent losses: 1 - prod(1 - p), the rig's own
   ``loss_probability`` included;
@@ -148,17 +148,18 @@ class BaroComposer(_Composer[BaroContributor]):
         self._devices = devices
 
     def push(self, t_ns: int) -> None:
-        bias, scale, noise, frozen = 0.0, 1.0, 1.0, False
+        bias, scale, noise, frozen, blocked = 0.0, 1.0, 1.0, False, False
         for item in self.items:
             terms: BaroFault = item.baro_terms(t_ns)
             bias += terms.bias_Pa
             scale *= terms.scale
             noise *= terms.noise_factor
             frozen = frozen or terms.frozen
+            blocked = blocked or terms.port_blocked
         fe = self._devices.analog
-        combined = BaroFault(bias, scale, noise, frozen)
+        combined = BaroFault(bias, scale, noise, frozen, blocked)
         if combined != fe.baro_fault:
-            fe.set_baro_fault(bias_Pa=bias, scale=scale, noise_factor=noise, frozen=frozen)
+            fe.set_baro_fault(bias_Pa=bias, scale=scale, noise_factor=noise, frozen=frozen, port_blocked=blocked)
 
 
 class AccelComposer(_Composer[AccelContributor]):
