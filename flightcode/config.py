@@ -131,6 +131,8 @@ def _check(file: str, cfg: FlightConfig) -> None:
         "plausibility.baro_flat_std_Pa": cfg.plausibility.baro_flat_std_Pa,
         "plausibility.accel_max_g": cfg.plausibility.accel_max_g,
         "plausibility.accel_xsens_tolerance_mps2": cfg.plausibility.accel_xsens_tolerance_mps2,
+        "plausibility.baro_motion_block_s": cfg.plausibility.baro_motion_block_s,
+        "plausibility.baro_motion_max_m": cfg.plausibility.baro_motion_max_m,
         "rc.capture.lock_frames": cfg.rc.capture.lock_frames, "rc.capture.stale_ms": cfg.rc.capture.stale_ms,
     }
     for key, value in positive.items():
@@ -138,6 +140,10 @@ def _check(file: str, cfg: FlightConfig) -> None:
     flat_n = cfg.plausibility.baro_flat_readings
     need(flat_n == 0 or flat_n >= 2, "plausibility.baro_flat_readings",
          f"must be 0 (off) or >= 2 (got {flat_n})")
+    pl = cfg.plausibility
+    need(pl.baro_motion_window_s == 0 or pl.baro_motion_window_s >= 6 * pl.baro_motion_block_s,
+         "plausibility.baro_motion_window_s",
+         f"must be 0 (off) or at least six blocks of baro_motion_block_s (got {pl.baro_motion_window_s})")
     need(0.0 <= cfg.adc.baro.rail_margin_V < 0.25 * cfg.adc.vref_V, "adc.baro.rail_margin_V",
          f"must be >= 0 and < a quarter of vref_V (got {cfg.adc.baro.rail_margin_V})")
     non_negative = {

@@ -238,14 +238,15 @@ class FlightLoop(LoopParts):
         if self.plausible.refused != refused:  # this sample's ADC reading was (partly) implausible
             self._rare("adc_implausible", "adc.implausible", **self.plausible.counters)
         if self.baro_ref.ready:
-            z_baro = self._update_kf(sample.t_ns, z_baro, a_up)
+            z_baro = self._update_kf(sample.t_ns, dt_s, z_baro, a_up)
         return z_baro, a_up
 
-    def _update_kf(self, t_ns: int, z_baro: float | None, a_up: float | None) -> float | None:
+    def _update_kf(self, t_ns: int, dt_s: float, z_baro: float | None, a_up: float | None) -> float | None:
         """The estimator's predict and updates (barometer, acceleration, at rest); returns the
-        barometer altitude as it took it."""
+        barometer altitude as it took it (None: refused)."""
         cfg = self.cfg
         self.kf.predict(self._u_applied)
+        z_baro = self._check_baro_motion(dt_s, z_baro, a_up)
         # In ground effect the rotor wash over the static port makes the barometer read
         # low: flying (the last sample's mode) below ground_effect_alt_m, trust it less.
         # It can only read low there (overpressure), so a reading below the take-off level
@@ -260,6 +261,8 @@ class FlightLoop(LoopParts):
         kc = self.kf.counters
         reanchored = kc["baro_reanchored"]
         if not self.kf.update(z_baro, a_up, r_scale):
+            if self.baro_motion is not None:
+                self.baro_motion.reading_rejected()
             self._rare("baro_rejected", "kf.baro_rejected", innovation_m=(z_baro or 0.0) - self.kf.z_m)
         elif kc["baro_reanchored"] != reanchored:
             self.log.warning("kf.baro_reanchored", count=kc["baro_reanchored"], z_hat_m=self.kf.z_m,
@@ -337,7 +340,8 @@ class FlightLoop(LoopParts):
                  | (TelemetryFlags.BARO_REF_READY if self.baro_ref.ready else 0)
                  | (TelemetryFlags.ACCEL_FROM_XSENS if cfg.kf.accel_source == "xsens" else 0)
                  | (TelemetryFlags.PAPER_LITERAL_LAW if cfg.attitude.law == "paper_literal" else 0)
-                 | (TelemetryFlags.IMU_SAMPLES_SKIPPED if self._skipped_in_window else 0))
+                 | (TelemetryFlags.IMU_SAMPLES_SKIPPED if self._skipped_in_window else 0)
+                 | (TelemetryFlags.BARO_MOTION_REFUSED if self.baro_motion and self.baro_motion.refusing else 0))
         self._skipped_in_window = False
         return flags
 

@@ -1,7 +1,8 @@
 """The flight loop's parts: its drivers (:class:`Devices`, built by :func:`make_devices`), the
 controllers, estimator, modes and references it is built from, the state it carries from one
 sample to the next, and the small services its steps share (port errors and rare anomalies
-counted and logged sparsely, stick scaling, the ESC write, statistics). The loop itself, the
+counted and logged sparsely, stick scaling, the ESC write, statistics, the barometer held
+against the accelerometers' motion). The loop itself, the
 order of its steps on each sample, is :mod:`flightcode.loop`.
 """
 
@@ -30,12 +31,16 @@ from flightcode.drivers.sbus import SbusRcInput
 from flightcode.drivers.xbee import XbeeTelemetryLink
 from flightcode.drivers.xsens import XsensDriver
 from flightcode.estimation.altitude_kf import AltitudeKF
+from flightcode.estimation.baro_motion import BaroMotionCheck
 from flightcode.estimation.plausibility import AdcPlausibility
 from flightcode.log import Logger
 from flightcode.modes import Mode, ModeMachine
 from flightcode.telemetry import ComputeWindow
 
 _DEG = math.pi / 180.0
+#: variance of the inertial vertical velocity the estimate is moved to when the barometer's
+#: motion disagrees, (m/s)^2: (0.2 m/s)^2, twice the estimator's own at the window's start
+BARO_MOTION_VZ_VAR = 0.04
 
 
 @dataclass
@@ -109,6 +114,9 @@ class LoopParts:
         self.kf = AltitudeKF(self.model, T_s, kf.q_a, kf.q_d, kf.q_b, kf.r_baro_m2, kf.r_acc, kf.r_rest_vz,
                              kf.baro_gate_chi2, kf.baro_gate_timeout_s)
         self.plausible = AdcPlausibility(cfg.plausibility)
+        pl = cfg.plausibility
+        self.baro_motion = (BaroMotionCheck(pl.baro_motion_window_s, pl.baro_motion_block_s, pl.baro_motion_max_m)
+                            if pl.baro_motion_window_s > 0 else None)
         self.mixer = Mixer(v.frame, v.arm_m, v.F_max_N / 4.0, v.kq_over_kt_m, v.mixer, self.model.d_h)
         self.analog = AnalogChain(cfg.adc.vref_V, cfg.adc.baro, cfg.adc.accel)
         self.baro_ref = BaroReference(int(cfg.adc.baro.zero_average_s * 1e9))
@@ -189,6 +197,33 @@ class LoopParts:
         return (unit(roll_us) * self._max_angle_rad, unit(pitch_us) * self._max_angle_rad,
                 unit(yaw_us) * self._max_yaw_rate_radps, z, thr_us, yaw_us)
 
+    def _check_baro_motion(self, dt_s: float, z_baro: float | None, a_up: float | None) -> float | None:
+        """The barometer against the accelerometers' motion (flightcode/estimation/baro_motion.py):
+        the reading, or None while its motion disagrees with the vehicle's. ``a_up``: this
+        sample's vertical acceleration as the estimator takes it, m/s^2 (None: refused)."""
+        check = self.baro_motion
+        if check is None:
+            return z_baro
+        kf, modes = self.kf, self.modes
+        if not modes.controllers_active:
+            check.on_ground()
+            return z_baro
+        judging = kf.z_m >= self.cfg.kf.ground_effect_alt_m and not modes.ground_contact
+        was_refusing = check.refusing
+        if not check.add(dt_s, z_baro, a_up, kf.z_m, kf.vz_mps, judging):
+            if was_refusing:
+                self.log.info("baro.motion_agrees", z_hat_m=kf.z_m, z_baro_m=z_baro,
+                              refused=self.counters["baro_motion_refused"])
+            return z_baro
+        target = check.take_reanchor()
+        if target is not None:
+            z_var_m2 = (check.max_m / 3.0) ** 2  # the inertial height is good to the check's tolerance
+            self.log.warning("baro.motion_disagrees", z_hat_m=kf.z_m, z_inertial_m=target[0],
+                             vz_inertial_mps=target[1], z_baro_m=z_baro)
+            kf.move_to(target[0], target[1], z_var_m2, BARO_MOTION_VZ_VAR)
+        self.counters["baro_motion_refused"] += 1
+        return None
+
     def _fix_references(self) -> None:
         """End of the boot averaging: altitude zero, accelerometer offsets, estimator start."""
         ref = self.baro_ref
@@ -212,6 +247,8 @@ class LoopParts:
                       imu_gaps=d.imu.counters["gap_samples"], imu_skipped=d.imu.counters["skipped_samples"],
                       adc_failed=d.adc.counters["failed_reads"], adc_resyncs=d.adc_bridge.counters["resyncs"],
                       adc_implausible=self.plausible.refused, baro_rejected=self.kf.counters["baro_rejected"],
+                      baro_motion_worst_m=round(self.baro_motion.take_worst(), 3) if self.baro_motion else "off",
+                      baro_motion_refused=self.counters["baro_motion_refused"],
                       hover_collective=self.hover.collective,
                       rc_errors=self._rc_errors(),
                       telemetry_sent=d.telemetry.counters["sent"] if d.telemetry is not None else 0)

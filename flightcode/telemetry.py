@@ -35,6 +35,7 @@ class TelemetryFlags(IntFlag):
     ACCEL_FROM_XSENS = 0x0010  # vertical acceleration from the XSENS (else the ADXL335)
     PAPER_LITERAL_LAW = 0x0020  # attitude.law = "paper_literal"
     IMU_SAMPLES_SKIPPED = 0x0040  # the loop fell behind and skipped samples in this window
+    BARO_MOTION_REFUSED = 0x0080  # the barometer's motion disagrees with the accelerometers': not fused
 
 
 @dataclass(frozen=True)

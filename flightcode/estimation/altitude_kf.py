@@ -267,6 +267,25 @@ class AltitudeKF:
         P[:, 0] = 0.0
         P[0, 0] = float(z_var_m2)
 
+    def move_to(self, z_m: float, vz_mps: float, z_var_m2: float, vz_var_m2: float) -> None:
+        """Put the height at ``z_m`` (m, up) and the vertical velocity at ``vz_mps`` (m/s),
+        with these variances, for a height found elsewhere than in this filter (the inertial
+        height of :mod:`flightcode.estimation.baro_motion`, when the barometer it had fused
+        turns out not to have measured the vehicle). The disturbance d restarts at 0 with
+        its initial variance: it is what the filter bent to reconcile the thrust and the
+        accelerometer with that barometer; the accelerometer alone learns it again in a few
+        tenths of a second. The three are uncorrelated with the rest after (a valid
+        covariance)."""
+        x, P = self._x, self._P
+        x[0] = float(z_m)
+        x[1] = float(vz_mps)
+        x[3] = 0.0
+        for i, var in ((0, z_var_m2), (1, vz_var_m2), (3, self._p0[3, 3])):
+            P[i, :] = 0.0
+            P[:, i] = 0.0
+            P[i, i] = float(var)
+        self.baro_reject_run = 0
+
     def update_at_rest(self) -> None:
         """The vehicle stands on the ground: fuse z' = 0 (variance ``r_rest_vz``)."""
         np.copyto(self._ph, self._P[:, 1])

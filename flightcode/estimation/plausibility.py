@@ -53,6 +53,14 @@ class PlausibilityParams:
         accel_xsens_tolerance_mps2: largest believable difference between the ADXL335's and
             the XSENS's vertical acceleration, m/s^2 (3: the ADXL335's 10 % sensitivity
             tolerance at 2 g plus its 50 Hz output filter's lag behind a touchdown).
+        baro_motion_window_s: the barometer's height change is compared with the
+            accelerometers' over this window, s (2; 0 turns the check off;
+            :mod:`flightcode.estimation.baro_motion`).
+        baro_motion_block_s: the blocks whose means are compared at the window's ends, s
+            (0.25: 100 readings, one reading's 0.44 m of noise averages to 0.06 m).
+        baro_motion_max_m: largest believable disagreement of the two changes, m (1.5: the
+            inertial side's error budget over 2 s with room to spare; a climb of 1.5 m behind
+            a blocked static port is seen).
     """
 
     __pydantic_config__ = {"extra": "forbid"}
@@ -62,6 +70,9 @@ class PlausibilityParams:
     baro_flat_std_Pa: float = 1.5
     accel_max_g: float = 5.0
     accel_xsens_tolerance_mps2: float = 3.0
+    baro_motion_window_s: float = 1.5
+    baro_motion_block_s: float = 0.25
+    baro_motion_max_m: float = 1.5
 
 
 class AdcPlausibility:

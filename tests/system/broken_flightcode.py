@@ -98,6 +98,9 @@ VARIANTS += [
     _from_catalogue("est-baro-flat-check-off", "fault-baro-freeze", {
         "the climb reaches pre-climb + 2 m, at most 0.75 m over",
         "the estimate holds without the barometer: within 0.75 m of truth"}),
+    _from_catalogue("est-baro-motion-judged-in-ground-effect", "fault-baro-port-blocked", {
+        "the climb reaches pre-climb + 2 m and does not run away: at most 1.5 m over",
+        "the estimate flies on the accelerometer: within 0.75 m of truth, 13.5-16 s"}),
 ]
 
 #: runs the copied flight code: its tree first on sys.path, then flightcode's own main
