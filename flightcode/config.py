@@ -141,9 +141,9 @@ def _check(file: str, cfg: FlightConfig) -> None:
     need(flat_n == 0 or flat_n >= 2, "plausibility.baro_flat_readings",
          f"must be 0 (off) or >= 2 (got {flat_n})")
     pl = cfg.plausibility
-    need(pl.baro_motion_window_s == 0 or pl.baro_motion_window_s >= 6 * pl.baro_motion_block_s,
+    need(pl.baro_motion_window_s == 0 or pl.baro_motion_window_s >= 2 * pl.baro_motion_block_s,
          "plausibility.baro_motion_window_s",
-         f"must be 0 (off) or at least six blocks of baro_motion_block_s (got {pl.baro_motion_window_s})")
+         f"must be 0 (off) or at least two blocks of baro_motion_block_s (got {pl.baro_motion_window_s})")
     need(0.0 <= cfg.adc.baro.rail_margin_V < 0.25 * cfg.adc.vref_V, "adc.baro.rail_margin_V",
          f"must be >= 0 and < a quarter of vref_V (got {cfg.adc.baro.rail_margin_V})")
     non_negative = {

@@ -87,6 +87,9 @@ def test_every_key_is_documented_and_in_the_example() -> None:
         (PORTS + "[failsafe]\nimu_timeout_s = 0.001\n", "failsafe.imu_timeout_s", "longer than one sample"),
         (PORTS + "[plausibility]\nbaro_flat_readings = 1\n", "plausibility.baro_flat_readings", "0 (off) or >= 2"),
         (PORTS + "[plausibility]\nbaro_flat_std_Pa = 0.0\n", "plausibility.baro_flat_std_Pa", "must be > 0"),
+        (PORTS + "[plausibility]\nbaro_motion_window_s = 0.3\n", "plausibility.baro_motion_window_s",
+         "at least two blocks"),
+        (PORTS + "[plausibility]\nbaro_motion_max_m = -1.0\n", "plausibility.baro_motion_max_m", "must be > 0"),
     ],
 )
 def test_errors_name_file_key_and_reason(tmp_path: Path, text: str, key: str, reason: str) -> None:

@@ -247,6 +247,28 @@ def test_loosened_height_is_re_anchored_by_the_barometer_at_rest(model: Altitude
     assert settle(loosen=True) < 0.05  # measured 0.01 m
 
 
+def test_moved_to_a_height_found_elsewhere_the_filter_flies_on_from_there(model: AltitudeModel) -> None:
+    """The barometer-motion check's re-anchor (flightcode/estimation/baro_motion.py): height,
+    velocity and the disturbance the filter bent to fit a blocked barometer are set, the
+    covariance stays valid, and on the accelerometer alone the filter holds the new state."""
+    kf = AltitudeKF(model, r_baro_m2=0.33)
+    kf.reset(2.0)
+    for _ in range(400):  # a filter that has fitted a barometer stuck at 2 m
+        kf.predict(0.05)
+        kf.update(2.0, 0.0)
+    assert abs(kf.disturbance_mps2) > 0.1  # it made the thrust's climb a disturbance
+    kf.move_to(4.0, 0.5, 0.25, 0.04)
+    assert (kf.z_m, kf.vz_mps, kf.disturbance_mps2) == (4.0, 0.5, 0.0)
+    P = kf.P
+    assert (P[0, 0], P[1, 1], P[3, 3]) == (0.25, 0.04, 1.0)
+    assert not P[[0, 1, 3]][:, [2, 4]].any() and not P[0, 1] and not P[0, 3] and not P[1, 3]
+    assert np.allclose(P, P.T) and np.all(np.linalg.eigvalsh(P) >= 0.0)
+    for _ in range(200):  # 0.5 s level, on the accelerometer: the climb rate carries the height
+        kf.predict(0.0)
+        kf.update(None, 0.0)
+    assert abs(kf.z_m - (4.0 + 0.5 * 0.5)) < 0.05 and abs(kf.vz_mps - 0.5) < 0.05
+
+
 # -- barometer innovation gate ------------------------------------------------------------------
 def _hovering(model: AltitudeModel, gate: float = 25.0, timeout_s: float = 1.0, seconds: float = 10.0,
               seed: int = 2) -> tuple[AltitudeKF, np.random.Generator]:
