@@ -221,7 +221,8 @@ class LoopParts:
             self.log.warning("baro.motion_disagrees", z_hat_m=kf.z_m, z_inertial_m=target[0],
                              vz_inertial_mps=target[1], z_baro_m=z_baro)
             kf.move_to(target[0], target[1], z_var_m2, BARO_MOTION_VZ_VAR)
-        self.counters["baro_motion_refused"] += 1
+        if z_baro is not None:
+            self.counters["baro_motion_refused"] += 1
         return None
 
     def _fix_references(self) -> None:

@@ -54,13 +54,14 @@ class PlausibilityParams:
             the XSENS's vertical acceleration, m/s^2 (3: the ADXL335's 10 % sensitivity
             tolerance at 2 g plus its 50 Hz output filter's lag behind a touchdown).
         baro_motion_window_s: the barometer's height change is compared with the
-            accelerometers' over this window, s (2; 0 turns the check off;
+            accelerometers' over this window, s (1.5; 0 turns the check off;
             :mod:`flightcode.estimation.baro_motion`).
         baro_motion_block_s: the blocks whose means are compared at the window's ends, s
             (0.25: 100 readings, one reading's 0.44 m of noise averages to 0.06 m).
         baro_motion_max_m: largest believable disagreement of the two changes, m (1.5: the
-            inertial side's error budget over 2 s with room to spare; a climb of 1.5 m behind
-            a blocked static port is seen).
+            inertial side's error budget over the window with room to spare, the suite's
+            hardest manoeuvre uses 1.17 m of it; a blocked static port is seen once the
+            vehicle has moved that much more than the filter followed it).
     """
 
     __pydantic_config__ = {"extra": "forbid"}
