@@ -262,10 +262,14 @@ class AltitudeKF:
         states (still a valid covariance), so the next barometer readings re-anchor it: for
         a vehicle that has just come to rest after a touchdown the accelerometer missed (a
         hard landing saturates it)."""
+        self._reset_variance(0, z_var_m2)
+
+    def _reset_variance(self, i: int, var: float) -> None:
+        """State ``i``'s variance set to ``var``, uncorrelated with the others (P stays valid)."""
         P = self._P
-        P[0, :] = 0.0
-        P[:, 0] = 0.0
-        P[0, 0] = float(z_var_m2)
+        P[i, :] = 0.0
+        P[:, i] = 0.0
+        P[i, i] = float(var)
 
     def move_to(self, z_m: float, vz_mps: float, z_var_m2: float, vz_var_m2: float) -> None:
         """Put the height at ``z_m`` (m, up) and the vertical velocity at ``vz_mps`` (m/s),
@@ -276,14 +280,12 @@ class AltitudeKF:
         accelerometer with that barometer; the accelerometer alone learns it again in a few
         tenths of a second. The three are uncorrelated with the rest after (a valid
         covariance)."""
-        x, P = self._x, self._P
+        x = self._x
         x[0] = float(z_m)
         x[1] = float(vz_mps)
         x[3] = 0.0
         for i, var in ((0, z_var_m2), (1, vz_var_m2), (3, self._p0[3, 3])):
-            P[i, :] = 0.0
-            P[:, i] = 0.0
-            P[i, i] = float(var)
+            self._reset_variance(i, var)
         self.baro_reject_run = 0
 
     def update_at_rest(self) -> None:

@@ -27,7 +27,9 @@ that stays blocked at a level the vehicle has left is not taken back, one that c
 What the check leaves to others: an outlier or a level step is the estimator's gate's
 (``kf.baro_gate_*``), so a block holding a reading the gate refused is dropped
 (:meth:`BaroMotionCheck.reading_rejected`); a block with fewer than half its readings (the
-ADC resyncing, a flat line refused) is dropped too, and the window starts again after it.
+ADC resyncing, a flat line refused) is dropped too, and the window starts again after it:
+nothing is judged until it holds a whole window again. A block closes at the sample after
+its last, once the gate has judged that last reading.
 
 Error budget of one window (1.5 s; docs/flightcode.md "The barometer against the
 accelerometers"): the estimator's velocity at the window's start (0.1 m/s in steady flight,
@@ -110,9 +112,8 @@ class BaroMotionCheck:
         self._blocks = 0  # blocks closed since the restart
         self._v = 0.0  # inertial velocity since the restart, m/s
         self._z = 0.0  # inertial height since the restart, m
-        self._t_s = 0.0  # sensor time since the restart, s
+        self._t_s = 0.0  # sensor time since the restart, s (0: nothing judged since)
         self._block_end_s = self.block_s
-        self._running = False
         self._open_block()
 
     def _open_block(self) -> None:
@@ -120,6 +121,9 @@ class BaroMotionCheck:
         self._n = 0  # of them with a barometer reading
         self._tainted = False  # one of its readings was an outlier to the estimator's gate
         self._st = self._sb = self._sz = self._shat = 0.0
+        #: the estimator's (height m, velocity m/s) at the block's last sample, once it is full:
+        #: the block closes at the next sample, after the gate has judged that last reading
+        self._full: tuple[float, float] | None = None
 
     def add(self, dt_s: float, z_baro_m: float | None, a_up_mps2: float | None, z_hat_m: float,
             vz_hat_mps: float, judging: bool) -> bool:
@@ -138,10 +142,11 @@ class BaroMotionCheck:
             self._a_last = a_up_mps2
         a = self._a_last
         if not judging or a is None or not (math.isfinite(dt_s) and dt_s > 0.0):
-            if self._running:
+            if self._t_s > 0.0:
                 self._restart()
             return self.refusing
-        self._running = True
+        if self._full is not None:
+            self._close_block(*self._full)
         # the integrals are taken exactly at each sample (the same for both ends of a window)
         t = self._t_s = self._t_s + dt_s
         z = self._z = self._z + self._v * dt_s + 0.5 * a * dt_s * dt_s
@@ -154,7 +159,7 @@ class BaroMotionCheck:
             self._sz += z
             self._shat += z_hat_m
         if t >= self._block_end_s:
-            self._close_block(vz_hat_mps, z_hat_m)
+            self._full = (z_hat_m, vz_hat_mps)
         return self.refusing
 
     def reading_rejected(self) -> None:
@@ -163,7 +168,7 @@ class BaroMotionCheck:
         one would judge the outlier, not the barometer's motion. The block is dropped."""
         self._tainted = True
 
-    def _close_block(self, vz_hat_mps: float, z_hat_m: float) -> None:
+    def _close_block(self, z_hat_m: float, vz_hat_mps: float) -> None:
         self._block_end_s += self.block_s
         n = self._n
         if 2 * n < self._m or self._tainted:
@@ -175,9 +180,9 @@ class BaroMotionCheck:
         self._open_block()
         self._ring.append(block)
         self._blocks += 1
-        # the estimator's velocity is trusted from one window after the estimate left the
-        # ground effect (see the module docstring)
-        if self._blocks > 2 * self._blocks_back:
+        # a whole window since the last gap, and the estimator's velocity trusted from one
+        # window after the estimate left the ground effect (see the module docstring)
+        if len(self._ring) > self._blocks_back and self._blocks > 2 * self._blocks_back:
             self._judge(self._ring[0], block)
 
     def _judge(self, first: _Block, last: _Block) -> None:
@@ -216,5 +221,5 @@ class BaroMotionCheck:
         there, so a refusal ends, and the window starts again."""
         self.refusing = False
         self._reanchor = None
-        if self._running:
+        if self._t_s > 0.0:
             self._restart()
