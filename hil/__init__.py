@@ -7,6 +7,8 @@ replay), ``host`` (the machine under the bench), and beside them ``plant``, ``fa
 ``record``, ``transport`` and ``vtime``.
 """
 
+# hil.clock first: its import stamp is the bench's start (start_to_tick0_s)
+from hil import clock  # noqa: F401  # isort: skip
 from hil import native
 
 __version__ = "0.1.0"

@@ -114,9 +114,13 @@ def _decide(directory: Path, root: Path) -> tuple[LoadState, manifest_mod.Manife
     if os.environ.get(ENV_SWITCH, "") in ("0", "false", "no"):
         return LoadState(directory, Why.SWITCHED_OFF, detail=f"{ENV_SWITCH}=0"), None
     try:
-        m = manifest_mod.read(directory)
-    except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
+        return _decide_from_manifest(directory, root)
+    except Exception as exc:  # noqa: BLE001 - ``import hil`` must never fail on the build directory
         return LoadState(directory, Why.UNREADABLE, detail=f"{directory / manifest_mod.FILE}: {exc}"), None
+
+
+def _decide_from_manifest(directory: Path, root: Path) -> tuple[LoadState, manifest_mod.Manifest | None]:
+    m = manifest_mod.read(directory)
     if m is None:
         return LoadState(directory, Why.NOT_BUILT), None
     if m.interpreter != manifest_mod.interpreter_tag() or Path(m.root) != root:

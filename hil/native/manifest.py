@@ -82,12 +82,30 @@ class Manifest:
 
     @classmethod
     def from_json(cls, text: str) -> Manifest:
-        data = json.loads(text)
+        """Parse a manifest; anything that is not one of this format raises ``ValueError``
+        with the reason (a damaged file, another tool's JSON, a hand edit)."""
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"not JSON ({exc})") from None
+        if not isinstance(data, dict):
+            raise ValueError(f"not a manifest: a JSON {type(data).__name__}, expected an object")
         if data.get("format") != FORMAT:
             raise ValueError(f"manifest format {data.get('format')!r}, expected {FORMAT}")
-        return cls(root=data["root"], interpreter=data["interpreter"], opt_level=data["opt_level"],
-                   groups=str(data.get("groups", "modules")), built_ns=int(data["built_ns"]), modules=dict(data["modules"]),
-                   sources={k: SourceStamp(v[0], int(v[1]), int(v[2])) for k, v in data["sources"].items()})
+        try:
+            modules = data["modules"]
+            sources = data["sources"]
+            if not isinstance(modules, dict) or not isinstance(sources, dict):
+                raise TypeError("'modules' and 'sources' must be objects")
+            return cls(root=str(data["root"]), interpreter=str(data["interpreter"]),
+                       opt_level=str(data["opt_level"]), groups=str(data.get("groups", "modules")),
+                       built_ns=int(data["built_ns"]),
+                       modules={str(k): str(v) for k, v in modules.items()},
+                       sources={str(k): SourceStamp(str(v[0]), int(v[1]), int(v[2])) for k, v in sources.items()})
+        except KeyError as exc:
+            raise ValueError(f"manifest lacks key {exc}") from None
+        except (TypeError, ValueError, IndexError) as exc:
+            raise ValueError(f"manifest malformed: {exc}") from None
 
     def write(self, directory: Path) -> None:
         tmp = directory / (FILE + ".tmp")

@@ -127,6 +127,49 @@ def test_an_unreadable_manifest_runs_interpreted(tmp_path: Path) -> None:
     assert _decide(tmp_path, ROOT)[0].why is Why.UNREADABLE
 
 
+_DAMAGED = {
+    "a JSON list": "[1, 2]",
+    "a JSON number": "3",
+    "a JSON string": '"manifest"',
+    "JSON null": "null",
+    "sources not an object": '{"format": 1, "root": "/", "interpreter": "x", "opt_level": "3", "built_ns": 0, '
+                             '"modules": {}, "sources": [1]}',
+    "a source stamp not a list": '{"format": 1, "root": "/", "interpreter": "x", "opt_level": "3", "built_ns": 0, '
+                                 '"modules": {}, "sources": {"hil/clock.py": 5}}',
+    "built_ns not a number": '{"format": 1, "root": "/", "interpreter": "x", "opt_level": "3", "built_ns": "soon", '
+                             '"modules": {}, "sources": {}}',
+    "truncated": '{"format": 1, "root": ',
+    "binary": "\udcff\x00\x01",
+}
+
+
+@pytest.mark.parametrize("text", list(_DAMAGED.values()), ids=list(_DAMAGED))
+def test_a_damaged_or_foreign_manifest_runs_interpreted_with_the_reason(tmp_path: Path, text: str) -> None:
+    (tmp_path / m.FILE).write_text(text, errors="surrogateescape")
+    state = _decide(tmp_path, ROOT)[0]
+    assert state.why is Why.UNREADABLE
+    assert str(tmp_path / m.FILE) in state.detail and len(state.detail) > len(str(tmp_path / m.FILE)) + 2
+
+
+def test_a_watched_source_that_cannot_be_read_runs_interpreted(tmp_path: Path) -> None:
+    # the manifest is well formed, but a watched "source" is a directory: hashing it raises
+    # IsADirectoryError inside changed_sources(), which once escaped the loader's try
+    stamps = {"hil": m.SourceStamp("0" * 64, (ROOT / "hil").stat().st_size, 1)}
+    state = _decide(_fake_build(tmp_path, ROOT, stamps), ROOT)[0]
+    assert state.why is Why.UNREADABLE and "hil" in state.detail
+
+
+def test_import_hil_survives_a_damaged_manifest(tmp_path: Path) -> None:
+    (tmp_path / m.FILE).write_text("[]")
+    env = {**os.environ, "HIL_NATIVE_DIR": str(tmp_path)}
+    env.pop("HIL_NATIVE", None)
+    out = subprocess.run([sys.executable, "-c", "import hil, hil.native as n; print(n.describe())"],
+                         capture_output=True, text=True, env=env, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("interpreted (the compiled build is unreadable (")
+    assert "not a manifest: a JSON list" in out.stdout
+
+
 def test_a_stale_build_says_so_at_import_and_runs_interpreted(tmp_path: Path) -> None:
     # a real process: the manifest names hil/clock.py with another content
     stamps = {"hil/clock.py": m.SourceStamp("0" * 64, 1, 1)}
