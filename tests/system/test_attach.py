@@ -1,4 +1,4 @@
-"""Rig ports on real serial lines: socat null-modem pty pairs and a loopback socket://.
+"""Rig ports on real serial lines: null-modem pty pairs and a loopback socket://.
 
 `hil devices` serves the IMU over a null modem (a pyserial client), the ground XBee over a
 null modem (the unmodified PyPI digi-xbee client) and the Maestro over socket://; `hil run`

@@ -1,12 +1,15 @@
 """Test helpers for real serial lines without hardware.
 
-* :func:`null_modem`: a socat pty pair, the software twin of a null-modem cable between two
-  USB-serial adapters. Both ends are real ttys; whatever one writes the other reads.
+* :func:`null_modem`: a pty pair bridged by a relay, the software twin of a null-modem cable
+  between two USB-serial adapters. Both ends are real ttys; whatever one writes the other
+  reads. The relay is socat when it is installed (an independent implementation, what CI
+  uses) and otherwise :mod:`tests.transport.ptyrelay`, which the tests own (same pty
+  settings, same behaviour for what the tests use; its docstring says what it carries).
 * :func:`loopback_server`: a one-connection TCP server on 127.0.0.1, the twin of a serial
   server (ser2net) for ``socket://`` URLs; the test talks through the accepted socket.
 
-Readiness is waited on, never slept for: socat says "starting data transfer loop" on stderr
-once both ptys exist.
+Readiness is waited on, never slept for: both relays say "starting data transfer loop" on
+stderr once both ptys exist.
 """
 
 from __future__ import annotations
@@ -14,43 +17,67 @@ from __future__ import annotations
 import asyncio
 import shutil
 import socket
+import sys
 from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
+from contextlib import asynccontextmanager, suppress
 from pathlib import Path
 
-import pytest
+PTY_RELAY = Path(__file__).with_name("ptyrelay.py")
+#: how long a relay may take to come up, and to go when told to
+RELAY_START_TIMEOUT_S = 10.0
+RELAY_STOP_TIMEOUT_S = 5.0
+
+
+def relay_command(a: Path, b: Path, *, own: bool = False) -> list[str]:
+    """The command linking ``a`` and ``b``: socat if installed (and not ``own``), else the
+    tests' own relay."""
+    socat = None if own else shutil.which("socat")
+    if socat is not None:
+        return [socat, "-d", "-d", f"pty,rawer,link={a}", f"pty,rawer,link={b}"]
+    return [sys.executable, "-I", "-S", str(PTY_RELAY), str(a), str(b)]
 
 
 @asynccontextmanager
-async def null_modem(directory: Path, name: str = "line") -> AsyncIterator[tuple[str, str]]:
-    """Two linked pty paths ``(bench_end, client_end)`` in ``directory``."""
-    socat = shutil.which("socat")
-    if socat is None:
-        pytest.skip("socat is not installed (.ci/run installs it)")
+async def null_modem(directory: Path, name: str = "line", *, own_relay: bool = False,
+                     started: list[asyncio.subprocess.Process] | None = None) -> AsyncIterator[tuple[str, str]]:
+    """Two linked pty paths ``(bench_end, client_end)`` in ``directory``; the relay process is
+    appended to ``started`` when given (for the relay's own tests)."""
     a, b = directory / f"{name}-bench", directory / f"{name}-client"
+    # stdin is a pipe: our relay ends when it reads end of file, should this process die
     proc = await asyncio.create_subprocess_exec(
-        socat, "-d", "-d", f"pty,rawer,link={a}", f"pty,rawer,link={b}",
-        stdin=asyncio.subprocess.DEVNULL, stdout=asyncio.subprocess.DEVNULL, stderr=asyncio.subprocess.PIPE,
+        *relay_command(a, b, own=own_relay),
+        stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.DEVNULL, stderr=asyncio.subprocess.PIPE,
     )
+    if started is not None:
+        started.append(proc)
     assert proc.stderr is not None
     seen: list[str] = []
+    drain: asyncio.Task[bytes] | None = None
     try:
         while True:
-            line = (await asyncio.wait_for(proc.stderr.readline(), 10)).decode(errors="replace")
+            line = (await asyncio.wait_for(proc.stderr.readline(), RELAY_START_TIMEOUT_S)).decode(errors="replace")
             if not line:
-                raise RuntimeError(f"socat exited: {''.join(seen)}")
+                raise RuntimeError(f"the null-modem relay exited: {''.join(seen)}")
             seen.append(line)
             if "starting data transfer loop" in line:
                 break
-        # keep draining socat's stderr so it never blocks on a full pipe
+        # keep draining the relay's stderr so it never blocks on a full pipe
         drain = asyncio.create_task(proc.stderr.read())
         yield str(a), str(b)
     finally:
         if proc.returncode is None:
             proc.terminate()
-            await proc.wait()
-        if "drain" in locals():
+            try:
+                await asyncio.wait_for(proc.wait(), RELAY_STOP_TIMEOUT_S)
+            except TimeoutError:
+                proc.kill()
+                await proc.wait()
+        if proc.stdin is not None:
+            proc.stdin.close()
+        if drain is not None:
             drain.cancel()
+            with suppress(asyncio.CancelledError):
+                await drain
 
 
 class LoopbackServer:

@@ -1,4 +1,4 @@
-"""SerialPort on real serial lines: a socat null-modem pty pair and a loopback socket://."""
+"""SerialPort on real serial lines: a null-modem pty pair and a loopback socket://."""
 
 from __future__ import annotations
 
