@@ -1,0 +1,149 @@
+"""The prescaled 32-bit counter with match registers that Timer0/1 and the PWM share
+(UM10139, chapters "Timer/Counter0 and Timer/Counter1" and "Pulse Width Modulator (PWM)").
+
+Per PCLK tick the prescale counter PC counts up; on the tick after PC has reached PR it
+returns to 0 and the timer counter TC advances, so TC advances every PR+1 ticks. A match
+happens on the tick at which TC becomes equal to a match register MRn. Per channel the match
+control bits (MCR, 3 bits a channel) say: interrupt (bit 0), reset (bit 1: at the end of the
+count at MRn, TC goes to 0 instead of MRn+1, giving the match value a full count), stop
+(bit 2: the counters stop with TC at MRn and the counter enable bit is cleared).
+
+Time is stepped from match to match, not tick by tick, so a long idle stretch costs one loop
+iteration per match that matters. :meth:`MatchCounter.ticks_to_effect` looks ahead on a copy
+for the core's skip-to-next-event.
+
+Simplification: the manual's timing figures raise the interrupt flag one PCLK after TC reaches
+the match value; the model raises it on the tick TC reaches it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from emulators.lpc2148.regs import MASK32
+
+_WRAP = 1 << 32
+#: a look-ahead horizon no firmware reaches (ticks)
+_FOREVER = 1 << 80
+
+#: on_match(channel mask, tick of the match)
+MatchHandler = Callable[[int, int], None]
+
+
+def _no_handler(mask: int, tick: int) -> None:
+    pass
+
+
+class MatchCounter:
+    """PC, TC, PR, MRs and MCR of one timer block; the owner reacts to matches."""
+
+    def __init__(self, n_match: int) -> None:
+        self.n_match = n_match
+        self.tc = 0
+        self.pc = 0
+        self.pr = 0
+        self.mr = [0] * n_match
+        self.mcr = 0
+        self.enabled = False
+        self.held_in_reset = False
+        #: channels whose matches matter to the owner besides MCR (external match, PWM latch)
+        self.extra = 0
+        #: the tick the state above belongs to
+        self.tick = 0
+
+    def masks(self) -> tuple[int, int, int]:
+        """(interrupt, reset, stop) channel masks from MCR."""
+        interrupt = reset = stop = 0
+        for c in range(self.n_match):
+            bits = (self.mcr >> (3 * c)) & 7
+            if bits & 1:
+                interrupt |= 1 << c
+            if bits & 2:
+                reset |= 1 << c
+            if bits & 4:
+                stop |= 1 << c
+        return interrupt, reset, stop
+
+    @property
+    def running(self) -> bool:
+        return self.enabled and not self.held_in_reset
+
+    def advance_to(self, tick: int, on_match: MatchHandler = _no_handler) -> None:
+        """Let the counter run to ``tick``, calling ``on_match(mask, tick)`` at each match of
+        a channel with MCR bits or in :attr:`extra` (stop and reset are handled here)."""
+        n = tick - self.tick
+        if n <= 0:
+            return
+        start = self.tick
+        self.tick = tick
+        if self.running:
+            self._run(n, start, on_match, probe=False)
+
+    def ticks_to_effect(self) -> int | None:
+        """Ticks from now to the next match with an effect beyond a reset (interrupt, stop,
+        or a channel in :attr:`extra`); None if the counter never gets there."""
+        if not self.running:
+            return None
+        return self.clone()._run(_FOREVER, 0, _no_handler, probe=True)
+
+    def clone(self) -> MatchCounter:
+        """An independent copy of the counter's state."""
+        sim = MatchCounter(self.n_match)
+        sim.tc, sim.pc, sim.pr, sim.mr, sim.mcr = self.tc, self.pc, self.pr, list(self.mr), self.mcr
+        sim.enabled, sim.held_in_reset, sim.extra, sim.tick = self.enabled, self.held_in_reset, self.extra, self.tick
+        return sim
+
+    def _run(self, n: int, start: int, on_match: MatchHandler, probe: bool) -> int | None:
+        interrupt, reset, stop = self.masks()
+        effect = interrupt | stop | self.extra
+        relevant = effect | reset
+        mr = self.mr
+        pr = self.pr
+        period = pr + 1
+        t = 0
+        resets = 0
+        while True:
+            to_inc = ((pr - self.pc) & MASK32) + 1
+            if n - t < to_inc:
+                self.pc = (self.pc + (n - t)) & MASK32
+                return None
+            t += to_inc
+            self.pc = 0
+            if self._at(reset, self.tc):
+                self.tc = 0
+                resets += 1
+            else:
+                self.tc = (self.tc + 1) & MASK32
+            hit = self._hits(relevant, self.tc)
+            if hit:
+                if probe:
+                    if hit & effect:
+                        return t
+                else:
+                    on_match(hit, start + t)
+                    if hit & stop:
+                        self.enabled = False
+                        return None
+            if probe and resets >= 2:
+                return None  # one whole reset cycle without an effect: none ever comes
+            if self._at(reset, self.tc):
+                continue  # the next count is a reset: take it singly
+            d = _WRAP
+            for c in range(self.n_match):
+                if relevant >> c & 1:
+                    d = min(d, ((mr[c] - self.tc) & MASK32) or _WRAP)
+            skip = min(d - 1, (n - t) // period)
+            if skip > 0:
+                self.tc = (self.tc + skip) & MASK32
+                t += skip * period
+
+    def _at(self, mask: int, tc: int) -> bool:
+        return self._hits(mask, tc) != 0
+
+    def _hits(self, mask: int, tc: int) -> int:
+        hit = 0
+        if mask:
+            for c in range(self.n_match):
+                if mask >> c & 1 and self.mr[c] == tc:
+                    hit |= 1 << c
+        return hit
