@@ -146,7 +146,8 @@ async def run_flight_async(
         if on_ready is not None:
             on_ready(loop, run.devices, run.runner)  # type: ignore[arg-type]
         # after on_ready: steering chains the tick gate a test may have set
-        run.steering = attach_live(run.recorder, loop, run.runner, run.logger, lockstep=run.mode is Mode.LOCKSTEP)
+        run.steering = attach_live(run.recorder, loop, run.runner, run.logger, lockstep=run.mode is Mode.LOCKSTEP,
+                                   note=run.note)
         if run.steering is not None:
             stack.callback(run.steering.close)  # idempotent: the flight's own end closes it first
         if progress is not None:

@@ -102,7 +102,13 @@ async def finish_run(run: RunState, end: EndReason, message: str, steal_ms: floa
         final = verdict_metadata(end, criteria, message, returncode, timing, clock_used=clock_used,
                                  clock_note=clock_note, rt_scheduling=rt_scheduling, cpu_latency=wake.result,
                                  cpu_scale=rig.flight.cpu_scale, shim=shim, notes=run.notes)
-        stats = recorder.close(final)
+        try:
+            stats = recorder.close(final)
+        except OSError as exc:  # the writer died (killed, out of memory): its .part is what is left
+            end, message = EndReason.ERROR, f"the recording was not finalized: {exc}"
+            part = recorder.path.with_name(recorder.path.name + ".part")
+            run.note(f"the recorder died before the end of the run: {part} holds what it wrote; "
+                     f"`hil recover {part}` salvages it")
     if not keep_run_dir and run.run_dir is not None:
         shutil.rmtree(run.run_dir, ignore_errors=True)
     return RunResult(

@@ -8,7 +8,9 @@ path nothing: serving, encoding for the socket and a slow client's backlog are t
 
 What goes back to the bench (``steer_fd``, length-prefixed pickles, read by hil/live/steer.py):
 ``("publish", topic, bytes)`` for a message the app published on /hil/inject or /hil/steer,
-``("playback", command, speed, seek_ns)`` for the app's play/pause/speed/seek controls.
+``("playback", command, speed, seek_ns)`` for the app's play/pause/speed/seek controls,
+``("server error", count, text)`` when messages could not be served (the first at once, then
+at most once a second with the running count), so the run's events and summary say so.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import foxglove
 from foxglove.websocket import (Capability, Client, ClientChannel, PlaybackCommand, PlaybackControlRequest,
                                 PlaybackState, PlaybackStatus)
 
+from hil import clock
 from hil.live.topics import CLIENT_SCHEMAS, LEN, MIN_PERIOD_NS, LiveConfig, client_schema_bytes
 from hil.record.topics import TOPICS, Encoding
 
@@ -58,8 +61,13 @@ class _Listener(foxglove.websocket.ServerListener):
         play = request.playback_command == PlaybackCommand.Play
         self._server.send(("playback", "play" if play else "pause", float(request.playback_speed), request.seek_time))
         status = PlaybackStatus.Playing if play else PlaybackStatus.Paused
+        # the bench steps forward to a later time and refuses a seek back (hil/live/steer.py)
+        seek = request.seek_time
+        did_seek = seek is not None and int(seek) > self._server.last_log_time
+        if did_seek:
+            status = PlaybackStatus.Paused  # the run pauses where the seek ends
         return PlaybackState(status=status, current_time=self._server.last_log_time,
-                             playback_speed=float(request.playback_speed), did_seek=False,
+                             playback_speed=float(request.playback_speed), did_seek=did_seek,
                              request_id=request.request_id)
 
 
@@ -81,6 +89,10 @@ class LiveServer:
         self._server: Any = None
         self._next_time_ns = 0
         self.errors = 0  #: messages the server failed to take (the recording has them)
+        self._reported_errors = 0
+        self._next_report_ns = 0  #: host monotonic ns of the next error report allowed
+        #: between two reports of the running error count, ns (the first goes at once)
+        self.report_period_ns = 1_000_000_000
 
     def start(self) -> int:
         for topic in self.config.topics:
@@ -104,8 +116,17 @@ class LiveServer:
             return
         try:
             self._serve(topic, channel, log_time, data)
-        except Exception:  # noqa: BLE001 - the live view must never cost the recording
+        except Exception as exc:  # noqa: BLE001 - the live view must never cost the recording
             self.errors += 1
+            self._report(f"{topic}: {type(exc).__name__}: {exc}")
+
+    def _report(self, text: str) -> None:
+        """Tell the bench (its events and summary), without flooding the pipe."""
+        now_ns = clock.monotonic_ns()  # paces the reports only
+        if self._reported_errors and now_ns < self._next_report_ns:
+            return
+        self._reported_errors, self._next_report_ns = self.errors, now_ns + self.report_period_ns
+        self.send(("server error", self.errors, text))
 
     def _serve(self, topic: str, channel: foxglove.Channel, log_time: int, data: bytes) -> None:
         if topic in self._limited:

@@ -10,7 +10,13 @@ exactly as without ``--live``:
   bench's clock, as under a debugger; the flight it records is the same however long the
   pause. Realtime runs (and lockstep on the host clock) refuse them with an event;
 * faults at the start of the next tick (``before_tick``), validated by the same path as a
-  scenario's ``[[faults]]`` (``FaultSchedule.start_now``), and recorded as events.
+  scenario's ``[[faults]]`` (``FaultSchedule.start_now``), and recorded as events;
+* the app's seek: forward, the run steps to the requested time and pauses there; backward, it
+  is refused with an event (a live run cannot go back: open its MCAP to scrub).
+
+The server's own trouble comes back on the same pipe: messages it could not serve are events
+and a note in the summary. If the server's process ends, steering ends: a paused run goes on,
+and the summary says so.
 
 Every command, accepted or refused, is an event on ``/hil/events`` (``kind = "live"``); a bad
 one changes nothing else.
@@ -30,6 +36,7 @@ from hil.config import ConfigError
 from hil.live.topics import INJECT_TOPIC, LEN, STEER_TOPIC
 
 EventLogger = Callable[[int, str, str, dict[str, Any]], None]
+Note = Callable[[str], None]
 #: the message text quoted in an error event (a client's mistake must not bloat the log)
 QUOTE_CHARS = 200
 
@@ -39,8 +46,17 @@ class Steering:
     ``runner``'s fault schedule; ``lockstep``: pause and speed allowed."""
 
     def __init__(self, fd: int, loop: Any, runner: Any, log_event: EventLogger, *, lockstep: bool,
-                 flush: Callable[[], None] = lambda: None) -> None:
+                 flush: Callable[[], None] = lambda: None, note: Note = lambda text: None,
+                 run_start_unix_ns: int = 0) -> None:
         self.fd = fd
+        #: a line for the run's summary and the MCAP's notes
+        self.note = note
+        #: the app's timeline: log time = this + sim time (seek requests are in log time)
+        self.run_start_unix_ns = run_start_unix_ns
+        #: messages the live server failed to serve, as last reported by it (the recording has them)
+        self.server_errors = 0
+        self._first_server_error = ""
+        self.server_gone = False
         #: hands what was logged to the recorder now (the run logger batches a tick's messages;
         #: a paused run's events must not wait for the next tick)
         self.flush = flush
@@ -69,22 +85,40 @@ class Steering:
         self._prev_before, self.loop.before_tick = self.loop.before_tick, self._before_tick
 
     def close(self) -> None:
+        if self.fd >= 0 and self.server_errors:
+            self.note(f"live view: the server could not serve {self.server_errors} message(s) "
+                      f"(first: {self._first_server_error}); the recording has them")
+        self._close_fd()
+
+    def _close_fd(self) -> None:
         if self._aio is not None and self.fd >= 0:
             self._aio.remove_reader(self.fd)
         if self.fd >= 0:
             os.close(self.fd)
             self.fd = -1
         self.paused, self._steps = False, 0
-        self._wake.set()  # a gate still waiting lets the run end
+        self._wake.set()  # a gate still waiting lets the run go on or end
+
+    def _server_gone(self) -> None:
+        """The server's end of the pipe closed (its process died): no more steering, and a
+        paused run must not wait for a resume that cannot come."""
+        self.server_gone = True
+        t_s = self._t_ns / 1e9
+        self._event("server gone", {"t_s": t_s, "server_errors": self.server_errors})
+        self.note(f"live view: the live server ended at t = {t_s:.3f} s; the run went on without it"
+                  + (f" ({self.server_errors} message(s) it could not serve, first: {self._first_server_error})"
+                     if self.server_errors else ""))
+        self._close_fd()
 
     def _readable(self) -> None:
         try:
             chunk = os.read(self.fd, 65536)
         except BlockingIOError:
             return
+        except OSError:
+            chunk = b""
         if not chunk:  # the server's process ended
-            assert self._aio is not None
-            self._aio.remove_reader(self.fd)
+            self._server_gone()
             return
         self._buf += chunk
         while len(self._buf) >= LEN.size:
@@ -95,9 +129,17 @@ class Steering:
             del self._buf[:LEN.size + n]
             if item[0] == "publish" and item[1] == INJECT_TOPIC:
                 self._injects.append(item[2])
+            elif item[0] == "server error":
+                self._on_server_error(item[1], item[2])
             else:
                 self._steer.append(item)
         self._wake.set()
+
+    def _on_server_error(self, count: int, text: str) -> None:
+        if not self._first_server_error:
+            self._first_server_error = text[:QUOTE_CHARS]
+        self.server_errors = max(self.server_errors, int(count))
+        self._event("server error", {"errors": self.server_errors, "error": text[:QUOTE_CHARS]})
 
     @property
     def _t_ns(self) -> int:
@@ -153,7 +195,7 @@ class Steering:
         if item[0] == "playback":
             _, what, speed, seek_ns = item
             if seek_ns is not None:
-                return {"command": "step", "ticks": 1}
+                return self._seek(int(seek_ns))
             return {"command": "pause"} if what == "pause" else {"command": "resume", "speed": speed}
         _, topic, raw = item
         if topic != STEER_TOPIC:
@@ -169,6 +211,17 @@ class Steering:
             self._refuse(topic, problem, raw)
             return None
         return msg  # type: ignore[no-any-return]
+
+    def _seek(self, seek_log_ns: int) -> dict[str, Any] | None:
+        """The app's seek to log time ``seek_log_ns`` as steps to that sim time (None, after an
+        event, for a seek that is not forward)."""
+        target_ns = seek_log_ns - self.run_start_unix_ns
+        ticks = seek_ticks(target_ns, self._t_ns, int(self.loop.tick_ns))
+        if ticks < 1:
+            self._refuse("playback", f"seek to t = {target_ns / 1e9:.3f} s: a live run cannot go back "
+                         f"(now t = {self._t_ns / 1e9:.3f} s); open the run's MCAP to scrub", f"seek {seek_log_ns}")
+            return None
+        return {"command": "step", "ticks": ticks}
 
     def _do(self, command: dict[str, Any]) -> None:
         what = command["command"]
@@ -211,6 +264,14 @@ class Steering:
         self.log_event(t_ns, "live", "inject", {"handle": handle.id, "fault": msg})
 
 
+def seek_ticks(target_ns: int, now_ns: int, tick_ns: int) -> int:
+    """Ticks to step from sim time ``now_ns`` to reach ``target_ns`` (the first tick at or after
+    it); 0 for a target at or before now."""
+    if target_ns <= now_ns:
+        return 0
+    return -(-(target_ns - now_ns) // tick_ns)
+
+
 def _steer_problem(msg: Any) -> str:
     if not isinstance(msg, dict):
         return "expected a JSON object such as {\"command\": \"pause\"}"
@@ -228,7 +289,8 @@ def _steer_problem(msg: Any) -> str:
     return ""
 
 
-def attach_live(recorder: Any, loop: Any, runner: Any, logger: Any, *, lockstep: bool) -> Steering | None:
+def attach_live(recorder: Any, loop: Any, runner: Any, logger: Any, *, lockstep: bool,
+                note: Note = lambda text: None) -> Steering | None:
     """``run_flight_async``'s hook (``logger``: its RunLogger): announce the server's URL and start steering (None when
     the run has no live server)."""
     live = getattr(recorder, "live", None)
@@ -239,9 +301,10 @@ def attach_live(recorder: Any, loop: Any, runner: Any, logger: Any, *, lockstep:
         live.announce(url)
     out = logger.out
     steering = Steering(recorder.take_steer_fd(), loop, runner, logger.event, lockstep=lockstep,
-                        flush=out.flush if out is not None else lambda: None)
+                        flush=out.flush if out is not None else lambda: None, note=note,
+                        run_start_unix_ns=int(getattr(recorder, "run_start_unix_ns", 0)))
     steering.attach()
     return steering
 
 
-__all__ = ["Steering", "attach_live"]
+__all__ = ["Steering", "attach_live", "seek_ticks"]

@@ -179,6 +179,8 @@ class ProcessRecorder:
 
         self.path = Path(path)
         self.topics = set(TOPICS)
+        #: Unix ns of sim time 0 (the app's timeline: log time = this + sim time)
+        self.run_start_unix_ns = run_start_unix_ns
         self._kwargs: dict[str, Any] = {
             "run_start_unix_ns": run_start_unix_ns,
             "metadata": dict(metadata),

@@ -192,3 +192,36 @@ async def test_live_view_and_pause_never_change_the_flight(fly, tmp_path):
         await stop(held, flight)
     assert live_events(client, "paused")[0]["detail"]["t_s"] == pytest.approx(1.9975)
     assert_same_flight(plain, paused)
+
+
+async def test_a_paused_run_goes_on_when_the_recorder_and_server_die(fly):
+    """The live server lives in the recorder's child process: killed while the app holds the
+    run paused, the run must not wait for a resume that cannot come. It flies on to its end
+    and says what happened (the recording itself is lost with its writer: `hil recover`)."""
+    import psutil
+
+    run = GatedRun()
+    flight = asyncio.create_task(fly("hover", duration_s=1.0, live=run.config, on_ready=run.on_ready))
+    try:
+        client = await run.client()
+    except BaseException:
+        await stop(run, flight)
+        raise
+    try:
+        await client.subscribe("/hil/events")
+        await client.advertise(1, STEER_TOPIC, "hil.Steer")
+        await send_json(client, 1, {"command": "step", "ticks": 40})
+        run.open.set()
+        await client.wait(lambda: live_events(client, "paused"))
+        me = psutil.Process()
+        # the recorder is forked without exec: a child with this process's command line
+        [recorder] = [p for p in me.children() if p.cmdline() == me.cmdline()]
+        recorder.kill()
+        result = await asyncio.wait_for(asyncio.shield(flight), 120)
+    finally:
+        await client.close()
+        await stop(run, flight)
+    assert any("the live server ended at t = 0.098 s" in n for n in result.notes), result.notes
+    assert result.end_reason.value == "bench error" and "not finalized" in result.message
+    part = [n for n in result.notes if "hil recover" in n]
+    assert part and ".mcap.part" in part[0], result.notes
