@@ -42,8 +42,6 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from hil.plant.quat import to_matrix
-
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
 Mat3 = tuple[Vec3, Vec3, Vec3]
@@ -90,95 +88,31 @@ class DynamicsConstants:
     ge_gain: Callable[[float], float]
 
 
-def rotor_hub_aero_B(
-    sd: float, sz: float, sf: float, o_radps: float,
-    rx_m: float, ry_m: float, rz_m: float,
-    bx_mps: float, by_mps: float, bz_mps: float,
-    wx_radps: float, wy_radps: float, wz_radps: float,
-    gx_mps: float, gy_mps: float, gz_mps: float,
-) -> tuple[float, float, float, float, float, float]:
-    """One rotor's H-force (N) at its hub and the moment it adds about the CG (N m), body FRD.
-
-    ``sd``, ``sz``, ``sf``: sigma times rotor drag in-plane, along the shaft, and flapping;
-    ``o_radps``: rotor speed; ``r*_m``: hub relative to the CG; ``b*_mps``: the CG's
-    air-relative velocity; ``w*_radps``: body rates; ``g*_mps``: the hub's gust minus the
-    CG's. Returns (Hx, Hy, Hz, dMx, dMy, dMz); the caller adds them in that order, so the
-    floating-point sums are those of the former inline code.
-    """
-    hvx = bx_mps + wy_radps * rz_m - wz_radps * ry_m - gx_mps
-    hvy = by_mps + wz_radps * rx_m - wx_radps * rz_m - gy_mps
-    hvz = bz_mps + wx_radps * ry_m - wy_radps * rx_m - gz_mps
-    hx_, hy_, hz_ = -sd * o_radps * hvx, -sd * o_radps * hvy, -sz * o_radps * hvz
-    return (
-        hx_,
-        hy_,
-        hz_,
-        ry_m * hz_ - rz_m * hy_ - sf * o_radps * hvy,
-        rz_m * hx_ - rx_m * hz_ + sf * o_radps * hvx,
-        rx_m * hy_ - ry_m * hx_,
-    )
-
-
-def body_drag_B(
-    sig: float, bx_mps: float, by_mps: float, bz_mps: float, lin: Vec3, quad: Vec3, cp_m: Vec3,
-) -> tuple[float, float, float, float, float, float]:
-    """Parasitic drag (N) on the CG's air-relative velocity ``b*_mps`` (body FRD), linear
-    plus quadratic per axis, scaled by the density ratio ``sig``, and its moment about the CG
-    from the centre of pressure ``cp_m`` (N m). Returns (Fx, Fy, Fz, Mx, My, Mz)."""
-    ex = -sig * (lin[0] + quad[0] * abs(bx_mps)) * bx_mps
-    ey = -sig * (lin[1] + quad[1] * abs(by_mps)) * by_mps
-    ez = -sig * (lin[2] + quad[2] * abs(bz_mps)) * bz_mps
-    cpx, cpy, cpz = cp_m
-    return ex, ey, ez, cpy * ez - cpz * ey, cpz * ex - cpx * ez, cpx * ey - cpy * ex
-
-
-def add_rotors_aero_B(
-    sd: float, sz: float, sf: float, hubs_m: tuple[Vec3, ...], o: Vec4,
-    bx_mps: float, by_mps: float, bz_mps: float, wx_radps: float, wy_radps: float, wz_radps: float,
-    u: Inputs, f_N: Vec3, m_Nm: Vec3,
-) -> tuple[float, float, float, float, float, float]:
-    """``f_N`` and ``m_Nm`` (body FRD, about the CG) plus the four rotors' H-forces and
-    flapping moments (:func:`rotor_hub_aero_B`; ``sd``, ``sz``, ``sf`` as there), rotor 0
-    first. ``hubs_m``: each hub relative to the CG; ``o``: rotor speeds (rad/s); ``b*_mps``:
-    the CG's air-relative velocity; ``w*_radps``: body rates; ``u``: the inputs, whose last
-    12 floats are the hubs' gusts. The sums are taken rotor by rotor in that order, as the
-    equations of motion always have."""
-    fx, fy, fz = f_N
-    mx, my, mz = m_Nm
-    g = 8
-    for i in range(4):
-        rx, ry, rz = hubs_m[i]
-        hx_, hy_, hz_, dmx, dmy, dmz = rotor_hub_aero_B(
-            sd, sz, sf, o[i], rx, ry, rz, bx_mps, by_mps, bz_mps, wx_radps, wy_radps, wz_radps,
-            u[g], u[g + 1], u[g + 2],
-        )
-        g += 3
-        fx += hx_
-        fy += hy_
-        fz += hz_
-        mx += dmx
-        my += dmy
-        mz += dmz
-    return fx, fy, fz, mx, my, mz
-
-
 def make_derivative(k: DynamicsConstants) -> Derivative:
-    """Build ``f(x, u) -> dx/dt`` (a 17-tuple) with the constants bound in."""
+    """Build ``f(x, u) -> dx/dt`` (a 17-tuple) with the constants bound in.
+
+    Every helper (rotation matrix, body drag, the four hubs' rotor drag and flapping) is
+    written out inline: the calls and the tuples between them cost more than the arithmetic
+    (docs/performance.md, The plant in scalar Python). The operations and their order are
+    those of the equations in the module docstring term by term, so the results are the
+    same floats bit for bit (tests/unit/plant/test_dynamics_exact.py keeps them so)."""
     g = k.gravity_mps2
     minv = 1.0 / k.mass_kg
     (jxx, jxy, jxz), (_, jyy, jyz), (_, _, jzz) = k.inertia_B_kgm2
     (ixx, ixy, ixz), (iyx, iyy, iyz), (izx, izy, izz) = k.inverse_inertia_B
     rx0, rx1, rx2, rx3 = k.rotor_x_m
     ry0, ry1, ry2, ry3 = k.rotor_y_m
+    rz0, rz1, rz2, rz3 = k.rotor_z_m
     kt0, kt1, kt2, kt3 = k.k_T
     kq0, kq1, kq2, kq3 = k.k_Q_signed
     jr0, jr1, jr2, jr3 = k.j_rotor_signed
     tu = 1.0 / k.tau_up_s
     td = 1.0 / k.tau_down_s
-    lin, quad, cp = k.linear_drag, k.quadratic_drag, k.cp_m
+    lin0, lin1, lin2 = k.linear_drag
+    quad0, quad1, quad2 = k.quadratic_drag
+    cpx, cpy, cpz = k.cp_m
     kd, kz, kf = k.rotor_drag, k.rotor_drag_z, k.flapping
     rotor_aero = kd > 0.0 or kz > 0.0 or kf > 0.0
-    hubs = tuple(zip(k.rotor_x_m, k.rotor_y_m, k.rotor_z_m, strict=True))
     dax, day, daz = k.angular_drag
     ge_z0 = k.ge_z0_m
     ge_cut = k.ge_cutoff_m
@@ -198,18 +132,77 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
         t1 = kt1 * o1 * o1 * kk
         t2 = kt2 * o2 * o2 * kk
         t3 = kt3 * o3 * o3 * kk
-        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = to_matrix((qw, qx, qy, qz))  # body -> NED
-        # Air-relative velocity of the CG in body axes, then body drag at the centre of pressure.
+        # R(q) body -> NED (quat.to_matrix)
+        r00 = 1.0 - 2.0 * (qy * qy + qz * qz)
+        r01 = 2.0 * (qx * qy - qw * qz)
+        r02 = 2.0 * (qx * qz + qw * qy)
+        r10 = 2.0 * (qx * qy + qw * qz)
+        r11 = 1.0 - 2.0 * (qx * qx + qz * qz)
+        r12 = 2.0 * (qy * qz - qw * qx)
+        r20 = 2.0 * (qx * qz - qw * qy)
+        r21 = 2.0 * (qy * qz + qw * qx)
+        r22 = 1.0 - 2.0 * (qx * qx + qy * qy)
+        # Air-relative velocity of the CG in body axes, then body drag at the centre of
+        # pressure: linear + quadratic per axis, scaled by sigma; its moment r_cp x F.
         ux, uy, uz = vx - wn, vy - we, vz - wd
         bx = r00 * ux + r10 * uy + r20 * uz
         by = r01 * ux + r11 * uy + r21 * uz
         bz = r02 * ux + r12 * uy + r22 * uz
-        ex, ey, ez, mx, my, mz = body_drag_B(sig, bx, by, bz, lin, quad, cp)
+        ex = -sig * (lin0 + quad0 * abs(bx)) * bx
+        ey = -sig * (lin1 + quad1 * abs(by)) * by
+        ez = -sig * (lin2 + quad2 * abs(bz)) * bz
+        mx = cpy * ez - cpz * ey
+        my = cpz * ex - cpx * ez
+        mz = cpx * ey - cpy * ex
         fx, fy, fz = ex, ey, ez - (t0 + t1 + t2 + t3)
         if rotor_aero:
-            fx, fy, fz, mx, my, mz = add_rotors_aero_B(
-                sig * kd, sig * kz, sig * kf, hubs, (o0, o1, o2, o3), bx, by, bz, wx, wy, wz, u,
-                (fx, fy, fz), (mx, my, mz))
+            # Per hub i: air velocity h = b + w x r_i - gust_i; H-force -sigma omega_i
+            # (k_d hx, k_d hy, k_z hz) at the hub; flapping sigma k_f omega_i (-hy, hx, 0).
+            nsd, nsz, sf = -(sig * kd), -(sig * kz), sig * kf
+            hvx = bx + wy * rz0 - wz * ry0 - u[8]
+            hvy = by + wz * rx0 - wx * rz0 - u[9]
+            hvz = bz + wx * ry0 - wy * rx0 - u[10]
+            a, b = nsd * o0, sf * o0
+            hx, hy, hz = a * hvx, a * hvy, nsz * o0 * hvz
+            fx += hx
+            fy += hy
+            fz += hz
+            mx += ry0 * hz - rz0 * hy - b * hvy
+            my += rz0 * hx - rx0 * hz + b * hvx
+            mz += rx0 * hy - ry0 * hx
+            hvx = bx + wy * rz1 - wz * ry1 - u[11]
+            hvy = by + wz * rx1 - wx * rz1 - u[12]
+            hvz = bz + wx * ry1 - wy * rx1 - u[13]
+            a, b = nsd * o1, sf * o1
+            hx, hy, hz = a * hvx, a * hvy, nsz * o1 * hvz
+            fx += hx
+            fy += hy
+            fz += hz
+            mx += ry1 * hz - rz1 * hy - b * hvy
+            my += rz1 * hx - rx1 * hz + b * hvx
+            mz += rx1 * hy - ry1 * hx
+            hvx = bx + wy * rz2 - wz * ry2 - u[14]
+            hvy = by + wz * rx2 - wx * rz2 - u[15]
+            hvz = bz + wx * ry2 - wy * rx2 - u[16]
+            a, b = nsd * o2, sf * o2
+            hx, hy, hz = a * hvx, a * hvy, nsz * o2 * hvz
+            fx += hx
+            fy += hy
+            fz += hz
+            mx += ry2 * hz - rz2 * hy - b * hvy
+            my += rz2 * hx - rx2 * hz + b * hvx
+            mz += rx2 * hy - ry2 * hx
+            hvx = bx + wy * rz3 - wz * ry3 - u[17]
+            hvy = by + wz * rx3 - wx * rz3 - u[18]
+            hvz = bz + wx * ry3 - wy * rx3 - u[19]
+            a, b = nsd * o3, sf * o3
+            hx, hy, hz = a * hvx, a * hvy, nsz * o3 * hvz
+            fx += hx
+            fy += hy
+            fz += hz
+            mx += ry3 * hz - rz3 * hy - b * hvy
+            my += rz3 * hx - rx3 * hz + b * hvx
+            mz += rx3 * hy - ry3 * hx
         ax = (r00 * fx + r01 * fy + r02 * fz) * minv
         ay = (r10 * fx + r11 * fy + r12 * fz) * minv
         az = (r20 * fx + r21 * fy + r22 * fz) * minv + g
@@ -255,17 +248,37 @@ def make_derivative(k: DynamicsConstants) -> Derivative:
 
 
 def rk4_step(f: Derivative, x: State, u: Inputs, h: float) -> State:
-    """One classical RK4 step of length ``h`` (s); renormalises the quaternion."""
-    # zip without strict= (noqa B905): every vector is N_STATES long by construction, and
-    # this is the hot path.
+    """One classical RK4 step of length ``h`` (s); renormalises the quaternion.
+
+    The stages' states are written out per element rather than zipped: the list building
+    was a fifth of the step (same operations, same order, same floats)."""
     hh = 0.5 * h
+    x0, x1, x2, x3, x4, x5, x6, x7, x8, x9, x10, x11, x12, x13, x14, x15, x16 = x
     k1 = f(x, u)
-    k2 = f([a + hh * b for a, b in zip(x, k1)], u)  # noqa: B905
-    k3 = f([a + hh * b for a, b in zip(x, k2)], u)  # noqa: B905
-    k4 = f([a + h * b for a, b in zip(x, k3)], u)  # noqa: B905
+    a0, a1, a2, a3, a4, a5, a6, a7, a8, a9, a10, a11, a12, a13, a14, a15, a16 = k1
+    k2 = f([x0 + hh * a0, x1 + hh * a1, x2 + hh * a2, x3 + hh * a3, x4 + hh * a4, x5 + hh * a5,
+            x6 + hh * a6, x7 + hh * a7, x8 + hh * a8, x9 + hh * a9, x10 + hh * a10, x11 + hh * a11,
+            x12 + hh * a12, x13 + hh * a13, x14 + hh * a14, x15 + hh * a15, x16 + hh * a16], u)
+    b0, b1, b2, b3, b4, b5, b6, b7, b8, b9, b10, b11, b12, b13, b14, b15, b16 = k2
+    k3 = f([x0 + hh * b0, x1 + hh * b1, x2 + hh * b2, x3 + hh * b3, x4 + hh * b4, x5 + hh * b5,
+            x6 + hh * b6, x7 + hh * b7, x8 + hh * b8, x9 + hh * b9, x10 + hh * b10, x11 + hh * b11,
+            x12 + hh * b12, x13 + hh * b13, x14 + hh * b14, x15 + hh * b15, x16 + hh * b16], u)
+    c0, c1, c2, c3, c4, c5, c6, c7, c8, c9, c10, c11, c12, c13, c14, c15, c16 = k3
+    k4 = f([x0 + h * c0, x1 + h * c1, x2 + h * c2, x3 + h * c3, x4 + h * c4, x5 + h * c5,
+            x6 + h * c6, x7 + h * c7, x8 + h * c8, x9 + h * c9, x10 + h * c10, x11 + h * c11,
+            x12 + h * c12, x13 + h * c13, x14 + h * c14, x15 + h * c15, x16 + h * c16], u)
+    d0, d1, d2, d3, d4, d5, d6, d7, d8, d9, d10, d11, d12, d13, d14, d15, d16 = k4
     h6 = h / 6.0
-    y = [a + h6 * (b + 2.0 * (c + d) + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4)]  # noqa: B905
-    qw, qx, qy, qz = y[6], y[7], y[8], y[9]
+    qw = x6 + h6 * (a6 + 2.0 * (b6 + c6) + d6)
+    qx = x7 + h6 * (a7 + 2.0 * (b7 + c7) + d7)
+    qy = x8 + h6 * (a8 + 2.0 * (b8 + c8) + d8)
+    qz = x9 + h6 * (a9 + 2.0 * (b9 + c9) + d9)
     n = (qw * qw + qx * qx + qy * qy + qz * qz) ** -0.5
-    y[6], y[7], y[8], y[9] = qw * n, qx * n, qy * n, qz * n
-    return y
+    return [x0 + h6 * (a0 + 2.0 * (b0 + c0) + d0), x1 + h6 * (a1 + 2.0 * (b1 + c1) + d1),
+            x2 + h6 * (a2 + 2.0 * (b2 + c2) + d2), x3 + h6 * (a3 + 2.0 * (b3 + c3) + d3),
+            x4 + h6 * (a4 + 2.0 * (b4 + c4) + d4), x5 + h6 * (a5 + 2.0 * (b5 + c5) + d5),
+            qw * n, qx * n, qy * n, qz * n,
+            x10 + h6 * (a10 + 2.0 * (b10 + c10) + d10), x11 + h6 * (a11 + 2.0 * (b11 + c11) + d11),
+            x12 + h6 * (a12 + 2.0 * (b12 + c12) + d12), x13 + h6 * (a13 + 2.0 * (b13 + c13) + d13),
+            x14 + h6 * (a14 + 2.0 * (b14 + c14) + d14), x15 + h6 * (a15 + 2.0 * (b15 + c15) + d15),
+            x16 + h6 * (a16 + 2.0 * (b16 + c16) + d16)]
