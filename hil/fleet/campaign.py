@@ -6,7 +6,10 @@ validation, the cases), ``campaign_executors.py`` (process pool, Dask), ``campai
 (``summary.json`` and its table), ``campaign_case.py`` (one case in its own process). The names
 documented in docs/replay-and-campaigns.md are importable from here.
 
-Every case is one ``run_case(params)`` (hil/fleet/campaign_case.py) in its own process. Executors:
+Every case is one ``run_bundled_case(case)`` (hil/fleet/campaign_worker.py): the case carries
+its files as bytes, runs in a temporary directory of the worker as ``run_case(params)``
+(hil/fleet/campaign_case.py, its own process), and its kept log comes back as bytes, written
+here into the campaign's ``logs/``; workers share no filesystem with the client. Executors:
 Dask distributed (a ``LocalCluster`` of processes, one thread each, no dashboard, 127.0.0.1,
 TLS with temporary credentials; or a scheduler address) when installed, else a stdlib ``ProcessPoolExecutor``. Results stream
 into ``results.jsonl`` and a rich summary; ``summary.json`` is written at the end, also after
@@ -27,6 +30,7 @@ from rich.console import Console
 
 from hil import clock
 from hil.config import ConfigError
+from hil.fleet.campaign_bundle import land_result
 from hil.fleet.campaign_case import finite, run_case
 from hil.fleet.campaign_executors import (
     CaseFn,
@@ -41,6 +45,7 @@ from hil.fleet.campaign_executors import (
 )
 from hil.fleet.campaign_file import Campaign, KeepLogs, load_campaign
 from hil.fleet.campaign_summary import TIMING_KEYS, outcome, print_summary, summarize
+from hil.fleet.campaign_worker import run_bundled_case
 
 
 @dataclass
@@ -80,7 +85,7 @@ def run_campaign(
     keep_logs: KeepLogs | None = None,
     console: Console | None = None,
     on_result: Handle | None = None,
-    case_fn: CaseFn = run_case,
+    case_fn: CaseFn = run_bundled_case,
 ) -> CampaignRun:
     """Run every case; stream results; write results.jsonl and summary.json; print the summary.
 
@@ -96,6 +101,9 @@ def run_campaign(
     cdir = campaign_dir(out_dir or campaign.out_dir, campaign.name)
     shutil.copyfile(campaign.path, cdir / "campaign.toml")
     cases = campaign.cases(cdir, keep_logs=keep_logs)
+    stop_event = f"hil-stop-{cdir.name}" if use_dask else None  # the stop flag for workers elsewhere
+    for case in cases:
+        case["stop_event"] = stop_event
     where = f"dask {scheduler}" if scheduler else f"dask LocalCluster x{n_workers} (TLS)" if use_dask else f"process pool x{n_workers}"
     out.print(f"campaign {campaign.name}: {len(cases)} cases on {where} -> {cdir}", highlight=False, soft_wrap=True)
     results: list[dict[str, Any]] = []
@@ -103,6 +111,7 @@ def run_campaign(
     with (cdir / "results.jsonl").open("a") as jsonl:
 
         def handle(result: dict[str, Any]) -> None:
+            result = land_result(result, cdir)
             jsonl.write(json.dumps(finite(result), allow_nan=False) + "\n")
             jsonl.flush()
             results.append(result)
@@ -117,7 +126,8 @@ def run_campaign(
 
         stop_file = cdir / "STOP"
         if use_dask:
-            interrupted, cancelled = run_dask(cases, n_workers, scheduler, case_fn, handle, stop_file, cdir.name)
+            interrupted, cancelled = run_dask(cases, n_workers, scheduler, case_fn, handle, stop_file, cdir.name,
+                                              stop_event=stop_event)
         else:
             interrupted, cancelled = run_pool(cases, n_workers, case_fn, handle, stop_file)
     summary = summarize(results, campaign=campaign, cases=len(cases), interrupted=interrupted, cancelled=cancelled,
@@ -129,5 +139,6 @@ def run_campaign(
 
 
 __all__ = ["TIMING_KEYS", "Campaign", "CampaignRun", "KeepLogs", "dask_available", "default_workers", "failure",
-           "load_campaign", "local_cluster_security", "outcome", "print_summary", "run_campaign", "run_case",
+           "load_campaign", "local_cluster_security", "outcome", "print_summary", "run_bundled_case", "run_campaign",
+           "run_case",
            "start_local_cluster", "summarize"]

@@ -153,17 +153,19 @@ def start_local_cluster(workers: int, **kwargs: Any) -> Any:
 
 
 def run_dask(cases: list[dict[str, Any]], workers: int, scheduler: str | None, case_fn: CaseFn, handle: Handle,
-             stop_file: Path, tag: str) -> tuple[bool, int]:
-    """Dask distributed: a LocalCluster of ``workers`` processes, or the cluster at ``scheduler``."""
+             stop_file: Path, tag: str, *, stop_event: str | None = None) -> tuple[bool, int]:
+    """Dask distributed: a LocalCluster of ``workers`` processes, or the cluster at ``scheduler``.
+    ``stop_event``: a Dask event set on Ctrl-C besides ``stop_file`` (for workers that cannot
+    see the file; hil/fleet/campaign_worker.py), cleared at the end."""
     with sigterm_as_ctrl_c():
-        return _run_dask(cases, workers, scheduler, case_fn, handle, stop_file, tag)
+        return _run_dask(cases, workers, scheduler, case_fn, handle, stop_file, tag, stop_event)
 
 
 def _run_dask(cases: list[dict[str, Any]], workers: int, scheduler: str | None, case_fn: CaseFn, handle: Handle,
-              stop_file: Path, tag: str) -> tuple[bool, int]:
+              stop_file: Path, tag: str, stop_event: str | None) -> tuple[bool, int]:
     import logging
 
-    from distributed import Client, KilledWorker, as_completed, wait
+    from distributed import Client, Event, KilledWorker, as_completed, wait
 
     cluster = None
     if scheduler:
@@ -194,6 +196,8 @@ def _run_dask(cases: list[dict[str, Any]], workers: int, scheduler: str | None, 
                 take(fut)
         except KeyboardInterrupt:
             stop_file.touch()
+            if stop_event:
+                Event(stop_event, client=client).set()
             running = set(itertools.chain.from_iterable(client.processing().values()))
             rest = [f for f in futures if f.key not in handled]
             queued = [f for f in rest if not f.done() and f.key not in running]
@@ -209,6 +213,9 @@ def _run_dask(cases: list[dict[str, Any]], workers: int, scheduler: str | None, 
             return True, len(rest) - sum(1 for f in rest if f.key in handled)
         return False, 0
     finally:
+        if stop_event:
+            with contextlib.suppress(Exception):  # the scheduler may be gone: nothing to clear then
+                Event(stop_event, client=client).clear()
         client.close()
         if cluster is not None:
             cluster.close()

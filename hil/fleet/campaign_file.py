@@ -21,7 +21,7 @@ A campaign file (``rigs/campaigns/*.toml``; format in docs/replay-and-campaigns.
 
 :func:`load_campaign` checks every sweep value before anything runs (flight keys against the
 flight-config template, rig values by loading the rig with them); :meth:`Campaign.cases` gives
-the params of every case (hil/fleet/campaign_case.py).
+every case, its files as bytes (hil/fleet/campaign_worker.py).
 """
 
 from __future__ import annotations
@@ -116,20 +116,31 @@ class Campaign:
             out.append((flight, rig))
         return out
 
-    def cases(self, campaign_dir: Path, *, keep_logs: KeepLogs | None = None) -> list[dict[str, Any]]:
-        """The params of every case (JSON-able; see hil/fleet/campaign_case.py)."""
+    def cases(self, campaign_dir: Path, *, keep_logs: KeepLogs | None = None,
+              cwd: Path | None = None) -> list[dict[str, Any]]:
+        """Every case, carrying its files as bytes (hil/fleet/campaign_worker.py): the rig, its
+        template, the files the flight command names relative to ``cwd`` (default: the current
+        directory), the scenario."""
+        from hil.fleet.campaign_bundle import rig_files, scenario_files
+
+        here = cwd or Path.cwd()
         out: list[dict[str, Any]] = []
+        rigs: dict[str, tuple[dict[str, Any], str]] = {}
         for (scenario_name, scenario_path), (flight, rig), seed in itertools.product(
                 self.scenarios, self.points(), self.seeds):
             case_id = f"{len(out):04d}"
+            point = repr(sorted(rig.items()))
+            if point not in rigs:
+                rigs[point] = rig_files(self.rig_path, rig, here)
+            shipped_rig, rig_rel = rigs[point]
+            shipped_scenario, scenario_rel = scenario_files(scenario_path)
             out.append({
-                "case_id": case_id, "campaign": self.name, "rig": str(self.rig_path),
-                "scenario": str(scenario_path), "scenario_name": scenario_name, "seed": seed, "mode": self.mode,
-                "duration_s": self.duration_s, "flight_overrides": flight, "rig_overrides": rig,
-                "case_dir": str(campaign_dir / "cases" / case_id),
-                "log_path": str(campaign_dir / "logs" / f"{case_id}_{scenario_name}_s{seed}.mcap"),
+                "case_id": case_id, "campaign": self.name, "scenario_name": scenario_name, "seed": seed,
+                "mode": self.mode, "duration_s": self.duration_s, "flight_overrides": flight, "rig_overrides": rig,
+                "files": {**shipped_rig, **shipped_scenario}, "rig": rig_rel, "scenario": scenario_rel,
+                "log_name": f"{case_id}_{scenario_name}_s{seed}.mcap",
                 "keep_logs": (keep_logs or self.keep_logs).value, "timeout_s": self.case_timeout_s,
-                "stop_file": str(campaign_dir / "STOP"), "cwd": str(Path.cwd()),
+                "stop_file": str(campaign_dir / "STOP"), "stop_event": None,
             })
         return out
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from hil.fleet.campaign import run_case
+from hil.fleet.campaign import run_bundled_case
 from hil.fleet.campaign_executors import failure
 
 DIE_SEED = 13
@@ -29,4 +29,4 @@ def die_on_seed_13(params: dict[str, Any]) -> dict[str, Any]:
 
 def first_fake_then_real(params: dict[str, Any]) -> dict[str, Any]:
     """Seed 1 passes at once (so the test can stop the campaign while seed 2 really flies)."""
-    return fake_pass(params) if params["seed"] == 1 else run_case(params)
+    return fake_pass(params) if params["seed"] == 1 else run_bundled_case(params)

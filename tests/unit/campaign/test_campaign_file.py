@@ -46,7 +46,7 @@ def test_cases_are_scenarios_x_sweep_points_x_seeds(tmp_path: Path) -> None:
     assert (first["scenario_name"], first["seed"], first["duration_s"], first["keep_logs"]) == ("hover-2s", 5, 1.5, "none")
     assert first["flight_overrides"] == {"attitude.tau_ff_s": 0.02}
     assert first["rig_overrides"] == {"plant.body.mass_kg": 1.1}
-    assert first["log_path"] == str(tmp_path / "run" / "logs" / "0000_hover-2s_s5.mcap")
+    assert first["log_name"] == "0000_hover-2s_s5.mcap"
     points = {(x["scenario_name"], x["flight_overrides"]["attitude.tau_ff_s"], x["rig_overrides"]["plant.body.mass_kg"],
                x["seed"]) for x in cases}
     assert len(points) == len(cases)

@@ -160,15 +160,18 @@ def _wait_for(path_glob: tuple[Path, str], timeout_s: float = 60.0) -> None:
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
-def test_ctrl_c_stops_the_running_case_cancels_the_rest_and_still_writes_the_results(tmp_path: Path, sig: int) -> None:
+def test_ctrl_c_stops_the_running_case_cancels_the_rest_and_still_writes_the_results(
+        tmp_path: Path, sig: int, monkeypatch: pytest.MonkeyPatch) -> None:
     """Ctrl-C, and SIGTERM (a CI runner cancelling the job) the same way: before SIGTERM was
     taken as Ctrl-C, the client died at once and the running case flew on as an orphan."""
     path = _campaign_file(tmp_path, 'seeds = [1, 2, 3]\nworkers = 1\nkeep_logs = "failed"\n')
+    worker_tmp = tmp_path / "worker-tmp"  # where the pool's workers make the cases' directories
+    worker_tmp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(worker_tmp))
 
     def interrupt_once_seed_2_flies(result: dict[str, Any]) -> None:
         if result["seed"] == 1:
-            run_dirs = list(tmp_path.glob("t-*"))
-            _wait_for((run_dirs[0] / "logs", "0001_*.mcap.part"))
+            _wait_for((worker_tmp, "hil-case-*/logs/0001_*.mcap.part"))
             os.kill(os.getpid(), sig)  # what Ctrl-C in the terminal (or a job's cancel) does to the campaign
 
     run = run_campaign(load_campaign(path), executor="process", out_dir=tmp_path, console=_quiet(),
@@ -188,6 +191,7 @@ def test_ctrl_c_stops_the_running_case_cancels_the_rest_and_still_writes_the_res
     assert s["done"] == len(lines) and s["done"] + s["cancelled"] == 3
     assert not (run.dir / "STOP").exists()
     assert not run.passed
+    assert list(worker_tmp.iterdir()) == []  # the case's directory went with it
 
 
 def test_local_cluster_speaks_tls_and_refuses_clients_without_its_credentials() -> None:
