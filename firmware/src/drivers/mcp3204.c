@@ -1,0 +1,58 @@
+/* MCP3204 reads: see mcp3204.h. */
+#include "drivers/mcp3204.h"
+
+#include "hal.h"
+
+#define START_BIT 0x04u
+#define SINGLE_ENDED 0x02u
+
+void mcp3204_request(uint8_t channel, uint8_t out[3])
+{
+    out[0] = START_BIT | SINGLE_ENDED;
+    out[1] = (uint8_t)((channel & 0x3u) << 6);
+    out[2] = 0x00;
+}
+
+int mcp3204_decode(const uint8_t miso[3])
+{
+    if (miso[1] & MCP3204_NULL_BIT)
+        return -1;
+    return ((miso[1] & 0x0F) << 8) | miso[2];
+}
+
+void mcp3204_init(mcp3204_t *m, const uint8_t channels[MCP3204_CHANNELS])
+{
+    for (int i = 0; i < MCP3204_CHANNELS; i++) {
+        m->channels[i] = channels[i];
+        mcp3204_request(channels[i], m->mosi + 3 * i);
+        m->lengths[i] = 3;
+    }
+    m->counters = (mcp3204_counters_t){0, 0, 0, 0};
+}
+
+int mcp3204_read(mcp3204_t *m, uint64_t t_ns, uint16_t codes[MCP3204_CHANNELS])
+{
+    uint8_t miso[3 * MCP3204_CHANNELS];
+    int r = hal_spi_exchange(m->mosi, miso, m->lengths, MCP3204_CHANNELS, t_ns);
+    if (r < 0)
+        return r;
+    if (r != HAL_SPI_DONE) {
+        if (r == HAL_SPI_BUSY)
+            m->counters.no_transfer++;
+        else
+            m->counters.failed_reads++;
+        return 0;
+    }
+    for (int i = 0; i < MCP3204_CHANNELS; i++) {
+        int code = mcp3204_decode(miso + 3 * i);
+        if (code < 0) {
+            m->counters.null_bit_errors++;
+            m->counters.failed_reads++;
+            hal_spi_resync(); /* wrong SPI mode or framing: re-apply the setup */
+            return 0;
+        }
+        codes[i] = (uint16_t)code;
+    }
+    m->counters.reads++;
+    return 1;
+}

@@ -1,0 +1,42 @@
+/*
+ * MCP3204 12-bit ADC (Microchip DS21298E), four single-ended channels a sample, through the
+ * HAL's SPI exchange. The datasheet's 3-byte transaction (Fig. 6-1, SPI mode 0,0):
+ *   MOSI 0000 01 S D2 | D1 D0 xxxxxx | xxxxxxxx     (S = 1 single-ended)
+ *   MISO (hi-Z)       | ? ? ? 0 B11..B8 | B7..B0    (bit 4 of byte 1: the null bit)
+ * so CH0..CH3 are 06 00 00, 06 40 00, 06 80 00, 06 C0 00. A reply with the null bit set
+ * is no reading: the SPI path is set up again (hal_spi_resync), never a misread code.
+ */
+#ifndef FW_MCP3204_H
+#define FW_MCP3204_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#define MCP3204_CHANNELS 4
+#define MCP3204_NULL_BIT 0x10u
+
+/* The 3 MOSI bytes converting channel 0..3 (single-ended). */
+void mcp3204_request(uint8_t channel, uint8_t out[3]);
+/* The 12-bit code of a reply, or -1 if the null bit is not 0. */
+int mcp3204_decode(const uint8_t miso[3]);
+
+typedef struct {
+    uint32_t reads, failed_reads, null_bit_errors, no_transfer;
+} mcp3204_counters_t;
+
+typedef struct {
+    uint8_t channels[MCP3204_CHANNELS];
+    uint8_t mosi[3 * MCP3204_CHANNELS];
+    uint8_t lengths[MCP3204_CHANNELS];
+    mcp3204_counters_t counters;
+} mcp3204_t;
+
+/* channels: MCP3204 channel numbers in the order the codes are returned. */
+void mcp3204_init(mcp3204_t *m, const uint8_t channels[MCP3204_CHANNELS]);
+
+/* Codes of all channels for the sample at sensor time t_ns: 1 with codes filled, 0 when this
+ * sample has none (counted: failed_reads if a request went out, else no_transfer), < 0 the
+ * port itself failed (a hal_status_t). */
+int mcp3204_read(mcp3204_t *m, uint64_t t_ns, uint16_t codes[MCP3204_CHANNELS]);
+
+#endif
