@@ -1,0 +1,137 @@
+/* plausibility.c - see plausibility.h. */
+#include "estimation/plausibility.h"
+
+#include <math.h>
+#include <string.h>
+
+bool flat_line_init(flat_line_t *fl, uint16_t n, float min_std)
+{
+    memset(fl, 0, sizeof *fl);
+    if (n < 2u || n > FLAT_LINE_MAX_READINGS) {
+        return false;
+    }
+    fl->n = n;
+    fl->min_var = min_std * min_std;
+    return true;
+}
+
+bool flat_line_add(flat_line_t *fl, float x)
+{
+    const uint16_t n = fl->n;
+    if (fl->i == 0u && fl->full) {
+        /* a turn of the ring: the sums afresh around today's level */
+        float sum = 0.0f;
+        for (uint16_t k = 0; k < n; k++) {
+            sum += fl->ring[k];
+        }
+        fl->ref = sum / (float)n;
+        float s1 = 0.0f;
+        float s2 = 0.0f;
+        for (uint16_t k = 0; k < n; k++) {
+            float d = fl->ring[k] - fl->ref;
+            s1 += d;
+            s2 += d * d;
+        }
+        fl->s1 = s1;
+        fl->s2 = s2;
+    } else if (fl->i == 0u) {
+        fl->ref = x;
+    }
+    float d_old = fl->ring[fl->i] - fl->ref;
+    float d = x - fl->ref;
+    if (fl->full) {
+        fl->s1 -= d_old;
+        fl->s2 -= d_old * d_old;
+    }
+    fl->s1 += d;
+    fl->s2 += d * d;
+    fl->ring[fl->i] = x;
+    fl->i++;
+    if (fl->i == n) {
+        fl->i = 0;
+        fl->full = true;
+    }
+    if (!fl->full) {
+        fl->flat = false;
+        return false;
+    }
+    float mean = fl->s1 / (float)n;
+    fl->flat = fl->s2 / (float)n - mean * mean < fl->min_var;
+    return fl->flat;
+}
+
+bool plausibility_params_check(const plausibility_params_t *params)
+{
+    uint16_t n = params->baro_flat_readings;
+    return n == 0u || (n >= 2u && n <= FLAT_LINE_MAX_READINGS);
+}
+
+bool plausibility_init(plausibility_t *pl, const plausibility_params_t *params)
+{
+    memset(pl, 0, sizeof *pl);
+    if (!plausibility_params_check(params)) {
+        return false;
+    }
+    pl->p = *params;
+    pl->max_f_mps2 = params->accel_max_g * PLAUSIBILITY_G0_MPS2;
+    pl->flat_on = params->baro_flat_readings > 0u;
+    if (pl->flat_on) {
+        (void)flat_line_init(&pl->flat, params->baro_flat_readings, params->baro_flat_std_Pa);
+    }
+    return true;
+}
+
+bool plausibility_baro_Pa(plausibility_t *pl, bool present, float p_Pa)
+{
+    if (!present) {
+        pl->have_prev = false;
+        return false;
+    }
+    bool had_prev = pl->have_prev;
+    float prev = pl->p_prev_Pa;
+    pl->have_prev = true;
+    pl->p_prev_Pa = p_Pa;
+    if (!(PLAUSIBILITY_BARO_MIN_PA <= p_Pa && p_Pa <= PLAUSIBILITY_BARO_MAX_PA)) {
+        pl->counters.baro_out_of_range++;
+        pl->have_prev = false; /* not a level to compare the next one with */
+        return false;
+    }
+    if (pl->flat_on && flat_line_add(&pl->flat, p_Pa)) {
+        pl->counters.baro_flat++;
+        return false;
+    }
+    if (had_prev && fabsf(p_Pa - prev) > pl->p.baro_max_step_Pa) {
+        pl->counters.baro_step++;
+        return false;
+    }
+    return true;
+}
+
+bool plausibility_accel_in_range(plausibility_t *pl, const float f_B_mps2[3])
+{
+    const float m = pl->max_f_mps2;
+    for (int i = 0; i < 3; i++) {
+        float f = f_B_mps2[i];
+        /* a NaN fails both compares; an infinity fails one */
+        if (!(-m <= f && f <= m)) {
+            pl->counters.accel_out_of_range++;
+            return false;
+        }
+    }
+    return true;
+}
+
+bool plausibility_accel_agrees(plausibility_t *pl, float a_up_mps2, float a_up_xsens_mps2)
+{
+    if (fabsf(a_up_mps2 - a_up_xsens_mps2) <= pl->p.accel_xsens_tolerance_mps2) {
+        return true;
+    }
+    pl->counters.accel_disagrees_xsens++;
+    return false;
+}
+
+uint32_t plausibility_refused(const plausibility_t *pl)
+{
+    const plausibility_counters_t *c = &pl->counters;
+    return c->baro_out_of_range + c->baro_flat + c->baro_step + c->accel_out_of_range + c->accel_disagrees_xsens;
+}
