@@ -12,7 +12,9 @@ sweep's overrides merged in), flies it with :func:`hil.flight.run.run_flight_asy
 ``mode``, ``duration_s`` (None = the scenario's), ``flight_overrides`` and ``rig_overrides``
 (dotted key -> value), ``case_dir``, ``log_path``, ``keep_logs`` (all | failed | none),
 ``timeout_s`` (wall seconds for the whole case), ``stop_file`` (the campaign's stop flag:
-once it exists the case is interrupted, its log finalized), ``cwd`` (for the flight command).
+once it exists the case is interrupted, its log finalized), ``cwd`` (for the flight command),
+``tmpdir`` (optional: the case process's TMPDIR, so that what a killed case leaves there goes
+with its caller's directory).
 """
 
 from __future__ import annotations
@@ -83,10 +85,11 @@ def run_case(params: dict[str, Any]) -> dict[str, Any]:
     result_path = case_dir / RESULT_FILE
     result_path.unlink(missing_ok=True)
     cwd = params.get("cwd")
+    env = dict(os.environ, TMPDIR=params["tmpdir"]) if params.get("tmpdir") else None
     with (case_dir / OUTPUT_FILE).open("wb") as out:
         proc = subprocess.Popen(
             [sys.executable, "-m", "hil.fleet.campaign_case", str(params_path)],
-            stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT, env=env,
             cwd=cwd if cwd and Path(cwd).is_dir() else None,
             start_new_session=True,  # a terminal Ctrl-C reaches the campaign, which stops cases itself
         )

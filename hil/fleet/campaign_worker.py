@@ -77,7 +77,7 @@ def _params(case: dict[str, Any], files: Path, root: Path, stop_file: Path) -> d
             "keep_logs", "timeout_s")
     return {**{k: case[k] for k in keep}, "rig": str(files / case["rig"]), "scenario": str(files / case["scenario"]),
             "case_dir": str(root / "case"), "log_path": str(root / "logs" / case["log_name"]),
-            "stop_file": str(stop_file), "cwd": str(files / WORK_DIR)}
+            "stop_file": str(stop_file), "cwd": str(files / WORK_DIR), "tmpdir": str(root / "tmp")}
 
 
 def run_bundled_case(case: dict[str, Any]) -> dict[str, Any]:
@@ -87,6 +87,7 @@ def run_bundled_case(case: dict[str, Any]) -> dict[str, Any]:
     try:
         files = root / "files"
         materialize(case["files"], files)
+        (root / "tmp").mkdir()  # the case's TMPDIR: a killed bench's run directory goes with root
         campaign_stop = Path(case["stop_file"]) if case.get("stop_file") else None
         # the campaign's own flag where this machine sees its directory; else one of our own
         stop_file = campaign_stop if campaign_stop and campaign_stop.parent.is_dir() else root / "STOP"

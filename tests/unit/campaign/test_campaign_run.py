@@ -96,8 +96,12 @@ def test_two_cases_through_a_dask_local_cluster(tmp_path: Path) -> None:
     assert not list((run.dir / "logs").glob("*.mcap*"))
 
 
-def test_a_case_whose_process_is_killed_is_a_failure_not_a_crashed_campaign(tmp_path: Path) -> None:
+def test_a_case_whose_process_is_killed_is_a_failure_not_a_crashed_campaign(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     path = _campaign_file(tmp_path, f'rig = "{DATA / "killer-rig.toml"}"\nseeds = [1, 2]\nworkers = 1\n')
+    worker_tmp = tmp_path / "worker-tmp"
+    worker_tmp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(worker_tmp))
     run = run_campaign(load_campaign(path), executor="process", out_dir=tmp_path, console=_quiet())
     lines = _jsonl(run)
     assert len(lines) == 2
@@ -109,6 +113,8 @@ def test_a_case_whose_process_is_killed_is_a_failure_not_a_crashed_campaign(tmp_
     assert (run.summary["failed"], run.summary["passed"], run.summary["interrupted"]) == (2, 0, False)
     assert sorted(run.summary["failed_cases"]) == ["0000", "0001"]
     assert not run.passed
+    # the killed bench could not remove its run directory: it went with the case's directory
+    assert list(worker_tmp.iterdir()) == []
 
 
 @pytest.mark.parametrize(("keep", "record"), [("all", True), ("failed", True), ("none", False)])
