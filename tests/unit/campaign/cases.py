@@ -30,3 +30,9 @@ def die_on_seed_13(params: dict[str, Any]) -> dict[str, Any]:
 def first_fake_then_real(params: dict[str, Any]) -> dict[str, Any]:
     """Seed 1 passes at once (so the test can stop the campaign while seed 2 really flies)."""
     return fake_pass(params) if params["seed"] == 1 else run_bundled_case(params)
+
+
+def first_fake_then_real_blind(params: dict[str, Any]) -> dict[str, Any]:
+    """As :func:`first_fake_then_real`, on a worker that cannot see the campaign's STOP file
+    (another machine): a stop reaches it only through the Dask event."""
+    return fake_pass(params) if params["seed"] == 1 else run_bundled_case({**params, "stop_file": None})

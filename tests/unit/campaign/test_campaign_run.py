@@ -200,6 +200,32 @@ def test_ctrl_c_stops_the_running_case_cancels_the_rest_and_still_writes_the_res
     assert list(worker_tmp.iterdir()) == []  # the case's directory went with it
 
 
+def test_ctrl_c_reaches_a_dask_worker_that_cannot_see_the_stop_file(tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """On a cluster without a shared filesystem the STOP file is the client's alone: the stop
+    travels as a Dask event, and the running case still ends interrupted with its log
+    finalized and brought back."""
+    path = _campaign_file(tmp_path, 'seeds = [1, 2, 3]\nworkers = 1\nkeep_logs = "failed"\n')
+    worker_tmp = tmp_path / "worker-tmp"
+    worker_tmp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(worker_tmp))
+
+    def interrupt_once_seed_2_flies(result: dict[str, Any]) -> None:
+        if result["seed"] == 1:
+            _wait_for((worker_tmp, "hil-case-*/logs/0001_*.mcap.part"))
+            os.kill(os.getpid(), signal.SIGINT)
+
+    run = run_campaign(load_campaign(path), executor="dask", out_dir=tmp_path, console=_quiet(),
+                       on_result=interrupt_once_seed_2_flies, case_fn=fake.first_fake_then_real_blind)
+    lines = _jsonl(run)
+    stopped = lines[1]
+    assert stopped["seed"] == 2 and stopped["end_reason"] == "interrupted", stopped
+    assert Path(stopped["log"]).parent == run.dir / "logs"
+    assert read_metadata(stopped["log"])["verdict"]["end_reason"] == "interrupted"
+    assert run.summary["interrupted"] and not run.passed
+    assert list(worker_tmp.glob("hil-case-*")) == []
+
+
 def test_local_cluster_speaks_tls_and_refuses_clients_without_its_credentials() -> None:
     """The local Dask cluster listens with TLS and mutual authentication: a client without the
     temporary credentials (any other local user) cannot connect."""
