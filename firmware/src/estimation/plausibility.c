@@ -15,25 +15,33 @@ bool flat_line_init(flat_line_t *fl, uint16_t n, float min_std)
     return true;
 }
 
+/* The sums afresh around the window's mean (the ring must be full). */
+static void flat_line_resum(flat_line_t *fl)
+{
+    const uint16_t n = fl->n;
+    const float r0 = fl->ring[0];
+    float dsum = 0.0f;
+    for (uint16_t k = 0; k < n; k++) {
+        dsum += fl->ring[k] - r0; /* differences of nearby values are exact: no rounding at 1e5 Pa */
+    }
+    fl->ref = r0 + dsum / (float)n;
+    float s1 = 0.0f;
+    float s2 = 0.0f;
+    for (uint16_t k = 0; k < n; k++) {
+        float d = fl->ring[k] - fl->ref;
+        s1 += d;
+        s2 += d * d;
+    }
+    fl->s1 = s1;
+    fl->s2 = s2;
+    fl->s2_peak = s2;
+}
+
 bool flat_line_add(flat_line_t *fl, float x)
 {
     const uint16_t n = fl->n;
     if (fl->i == 0u && fl->full) {
-        /* a turn of the ring: the sums afresh around today's level */
-        float sum = 0.0f;
-        for (uint16_t k = 0; k < n; k++) {
-            sum += fl->ring[k];
-        }
-        fl->ref = sum / (float)n;
-        float s1 = 0.0f;
-        float s2 = 0.0f;
-        for (uint16_t k = 0; k < n; k++) {
-            float d = fl->ring[k] - fl->ref;
-            s1 += d;
-            s2 += d * d;
-        }
-        fl->s1 = s1;
-        fl->s2 = s2;
+        flat_line_resum(fl); /* a turn of the ring: no drift over a flight */
     } else if (fl->i == 0u) {
         fl->ref = x;
     }
@@ -55,7 +63,18 @@ bool flat_line_add(flat_line_t *fl, float x)
         fl->flat = false;
         return false;
     }
+    if (fl->s2 > fl->s2_peak) {
+        fl->s2_peak = fl->s2;
+    }
     float mean = fl->s1 / (float)n;
+    if (fl->s2 < fl->s2_peak * FLAT_LINE_RESUM_RATIO || mean * mean > 0.5f * (fl->s2 / (float)n)) {
+        /* float32 keeps 24 bits: after an outlier left the window what remains of s2 is the
+         * rounding of its square; a reference far from the window's mean (an outlier was in
+         * the window when it was taken) leaves the variance as a difference of two large
+         * numbers */
+        flat_line_resum(fl);
+        mean = fl->s1 / (float)n;
+    }
     fl->flat = fl->s2 / (float)n - mean * mean < fl->min_var;
     return fl->flat;
 }
