@@ -1,7 +1,9 @@
-"""The one compiled part ``pip install`` builds: the clock shim.
+"""The compiled parts ``pip install`` builds: the clock shim and the board's cycle counter.
 
 ``hil.vtime._shim`` is a plain C shared library preloaded into the flight code in lockstep runs
-(docs/time.md). It has no Python module init and is never imported. Everything else installs as
+(docs/time.md). It has no Python module init and is never imported; ``hil.board._cyclehook``,
+the emulated LPC2148's cycle counter, is the same kind of library, loaded with ctypes
+(hil/board/native.py, docs/board.md). Everything else installs as
 Python; ``hil build`` compiles the device models, the plant and the tick path afterwards, as an
 option (docs/performance.md, Builds).
 
@@ -35,4 +37,11 @@ shim = Extension(
     extra_compile_args=["-fvisibility=hidden", "-U_FORTIFY_SOURCE", "-O2", "-Wall", "-Wextra"],
     libraries=["dl"],
 )
-setup(ext_modules=[shim])
+# The emulated LPC2148's cycle counter (hil/board/cyclehook.c): Unicorn block and probe hooks in
+# C, loaded with ctypes (hil/board/native.py); like the shim, no Python module init.
+cyclehook = Extension(
+    "hil.board._cyclehook",
+    sources=["hil/board/cyclehook.c"],
+    extra_compile_args=["-fvisibility=hidden", "-O2", "-Wall", "-Wextra"],
+)
+setup(ext_modules=[shim, cyclehook])
