@@ -22,6 +22,7 @@ from mcap.records import Channel, Schema
 from mcap.writer import Writer
 
 from hil.record import frames
+from hil.record.mcap_append import MessageAppender
 from hil.record.payload import adc_tick, encode_json
 from hil.record.routes import STOP, Kind, QueueItem, Route
 from hil.record.topics import WIRE_BATCH_BYTES, WIRE_BATCH_NS, Stamp
@@ -77,6 +78,8 @@ class MessageEmitter:
     _routes: dict[str, Route]
     _queue: queue.SimpleQueue[Any]
     _writer: Writer | None
+    #: ``_writer``'s message append (``MessageAppender``), set with it
+    _append: Callable[[int, int, bytes, int, int], None]
     _fatal: BaseException | None  #: the write failure that broke the file
     _high_water: int
     _queue_max: int
@@ -232,7 +235,7 @@ class MessageEmitter:
         if self._chunk_messages and self._chunk_bytes + size > self._chunk_size:
             self._writer.flush()  # finish the chunk before it would pass chunk_size (mcap closes it after)
             self._chunk_bytes = self._chunk_messages = 0
-        self._writer.add_message(route.channel_id, log_time, data, publish_time, route.seq & 0xFFFFFFFF)
+        self._append(route.channel_id, log_time, data, publish_time, route.seq & 0xFFFFFFFF)
         if self.mirror is not None:
             self.mirror(spec.topic, log_time, data)
         self._chunk_bytes += size

@@ -112,11 +112,7 @@ def _child(cmd_fd: int, result_fd: int, path: Path, kwargs: dict[str, Any], live
         if kind == _CLOSE:
             final = payload
             break
-        for topic, t_ns, t_host_ns, item in payload:
-            if topic is None:  # wire bytes: item = (port, direction, data)
-                rec.log_wire(item[0], item[1], t_ns, t_host_ns, item[2])
-            else:
-                rec.log(topic, t_ns, item, t_host_ns)
+        rec.write_now(payload)  # wire bytes: topic None, item = (port, direction, data)
     if final is None:
         final = {"status": "aborted", "error": error}
     try:

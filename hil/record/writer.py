@@ -46,6 +46,7 @@ from mcap.writer import CompressionType, Writer
 
 import hil
 from hil.record.emit import MessageEmitter, SinkProxy, record_size
+from hil.record.mcap_append import MessageAppender
 from hil.record.payload import str_dict
 from hil.record.protobuf import encoder as protobuf_encoder
 from hil.record.routes import STOP, Kind, QueueItem, RecordBatch, Route
@@ -127,6 +128,7 @@ class Recorder(MessageEmitter):
         self._threaded = bool(writer_thread)
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._routes: dict[str, Route] = {t: Route(s) for t, s in TOPICS.items()}
+        self._wire_routes: dict[tuple[str, str], Route] = {}  #: (port, direction) -> route, as met
         self._state = _State.NEW
         self._lock = threading.Lock()  # state changes and the (rare) drop counters
         self._thread: threading.Thread | None = None
@@ -172,6 +174,7 @@ class Recorder(MessageEmitter):
             self.part_path.unlink()  # ours (O_EXCL), and holds nothing worth keeping
             raise
         self._sink, self._writer = sink, writer
+        self._append = MessageAppender(writer).add
         if self._threaded:
             self._thread = threading.Thread(target=self._run, name=f"mcap-writer {self.path.name}", daemon=True)
         with self._lock:
@@ -264,6 +267,35 @@ class Recorder(MessageEmitter):
                 route.dropped += 1
         else:
             self._queue.put((route, kind, t_ns, t_host_ns, payload))
+
+    def write_now(self, items: Iterable[tuple[str | None, int, int, Any]]) -> None:
+        """``writer_thread=False`` only: each item written at once, in order, exactly as
+        ``log(topic, t_ns, payload, t_host_ns)`` or, for ``topic`` None, ``log_wire(*payload,
+        ...)`` with ``payload = (port, direction, data)`` would: the recorder child's batch
+        (hil/record/process.py) without a call per layer for each of its ~10 messages a tick."""
+        if self._threaded or self._state is not _State.RUNNING:
+            for topic, t_ns, t_host_ns, payload in items:
+                if topic is None:
+                    self.log_wire(payload[0], payload[1], t_ns, t_host_ns, payload[2])
+                else:
+                    self.log(topic, t_ns, payload, t_host_ns)
+            return
+        routes, wires, handle = self._routes, self._wire_routes, self._handle
+        for topic, t_ns, t_host_ns, payload in items:
+            if topic is None:
+                port, direction, data = payload
+                route = wires.get((port, direction))
+                if route is None:
+                    route = routes.get(f"/hil/wire/{port}/{direction}")
+                    if route is None:
+                        wire_topic(port, direction)  # raises UnknownTopicError
+                    wires[(port, direction)] = route  # type: ignore[assignment]
+                handle((route, Kind.WIRE, t_ns, t_host_ns, bytes(data)))  # type: ignore[arg-type]
+            else:
+                route = routes.get(topic)
+                if route is None:
+                    topic_spec(topic)  # raises UnknownTopicError with the message
+                handle((route, Kind.PLAIN, t_ns, t_host_ns, payload))  # type: ignore[arg-type]
 
     def batch(self) -> RecordBatch:
         """A :class:`RecordBatch` feeding this recorder (one queue put per ``flush()``)."""
