@@ -81,6 +81,9 @@ class FlightSection:
     boot_timeout_s: float = 20.0
     #: lockstep on the host clock only (the fallback): wall seconds to wait for a sample's command
     barrier_timeout_s: float = 0.5
+    #: wall seconds the flight command's processes have to exit after SIGTERM at the run's end
+    #: (or Ctrl-C, a bench error) before SIGKILL ends whatever is left of its tree
+    stop_grace_s: Annotated[float, Field(gt=0.0, le=600.0)] = 3.0
     required_devices: tuple[str, ...] = ("imu", "adc")
     #: the target processor's CPU time per host CPU second: compute figures in lockstep are the
     #: flight code's CPU time on this host times this (docs/time.md: how to calibrate it)

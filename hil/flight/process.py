@@ -4,6 +4,9 @@ The command line comes from the rig (any language): ``{python}`` is replaced by 
 interpreter and ``{config}`` by the generated flight config. stdout and stderr are read
 line by line; each line goes to ``on_line(stream, text)`` (the bench logs it to MCAP as
 foxglove.Log) and the last lines are kept for the run summary.
+
+The command may be a launcher (``sh -c``, ``make``, ``strace``, ``gdb``): every process it
+starts belongs to the run and is ended with it (:mod:`hil.flight.process_tree`).
 """
 
 from __future__ import annotations
@@ -11,12 +14,22 @@ from __future__ import annotations
 import asyncio
 import collections
 import os
+import secrets
 import signal
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from hil.flight.process_tree import TOKEN_ENV, TreeOwner
+from hil.flight.signals import on_hard_exit
+from hil.vtime.tree import ProcState
+
 LineCallback = Callable[[str, str], None]
+#: wall seconds to wait for the output pipes to end once the command's own process exited and
+#: no other process of its tree is left (they end at once; the bound guards a hidden holder)
+DRAIN_S = 1.0
+#: the rig's ``[flight] stop_grace_s`` default: wall seconds between SIGTERM and SIGKILL
+STOP_GRACE_S = 3.0
 
 PR_SET_PDEATHSIG = 1
 
@@ -41,7 +54,7 @@ class FlightProcess:
     """The flight code subprocess."""
 
     def __init__(self, argv: list[str], *, cwd: Path, on_line: LineCallback, keep_lines: int = 20,
-                 env: dict[str, str] | None = None) -> None:
+                 env: dict[str, str] | None = None, stop_grace_s: float = STOP_GRACE_S) -> None:
         self.argv = argv
         self.cwd = cwd
         self.on_line = on_line
@@ -58,6 +71,12 @@ class FlightProcess:
         self.exited = asyncio.Event()
         self._watcher: asyncio.Task[None] | None = None
         self.killed_by_bench = False
+        self.stop_grace_s = stop_grace_s
+        #: every process of the current start's tree (None before the first start)
+        self.owner: TreeOwner | None = None
+        self._forget_hard_exit: Callable[[], None] = lambda: None
+        #: processes of the tree still there after SIGKILL (stuck in the kernel), from the last stop
+        self.survivors: list[ProcState] = []
 
     async def start(self, extra_env: dict[str, str] | None = None) -> None:
         env = dict(os.environ)
@@ -65,23 +84,32 @@ class FlightProcess:
         env.update(self.env)
         if extra_env:
             env.update(extra_env)
-        self.proc = await asyncio.create_subprocess_exec(
-            *self.argv,
-            cwd=self.cwd,
-            stdin=asyncio.subprocess.DEVNULL,
-            stdout=asyncio.subprocess.PIPE,
-            stderr=asyncio.subprocess.PIPE,
-            env=env,
-            start_new_session=True,  # Ctrl-C in the terminal reaches the bench only
-            preexec_fn=_die_with_parent,
-        )
+        token = f"{os.getpid()}-{secrets.token_hex(8)}"
+        env[TOKEN_ENV] = token  # finds the tree's orphans that left its session
+        TreeOwner.hold()  # this process reaps the tree's orphans from now
+        try:
+            self.proc = await asyncio.create_subprocess_exec(
+                *self.argv,
+                cwd=self.cwd,
+                stdin=asyncio.subprocess.DEVNULL,
+                stdout=asyncio.subprocess.PIPE,
+                stderr=asyncio.subprocess.PIPE,
+                env=env,
+                start_new_session=True,  # its own group: Ctrl-C in the terminal reaches the bench only
+                preexec_fn=_die_with_parent,
+            )
+        except BaseException:
+            TreeOwner.release()
+            raise
+        self.owner = TreeOwner(self.proc.pid, token)
+        self._forget_hard_exit = on_hard_exit(self.owner.kill_now)
         assert self.proc.stdout is not None and self.proc.stderr is not None
         self._readers = [
             asyncio.create_task(self._pump(self.proc.stdout, "stdout")),
             asyncio.create_task(self._pump(self.proc.stderr, "stderr")),
         ]
         # keep a reference: the loop holds tasks weakly, and this one sets ``exited``
-        self._watcher = asyncio.create_task(self._watch())
+        self._watcher = asyncio.create_task(self._watch(self.proc, self.owner, list(self._readers)))
         for hook in self.on_start:
             hook(self.proc.pid)
 
@@ -95,13 +123,15 @@ class FlightProcess:
                 self.last_stderr.append(text)
             self.on_line(name, text)
 
-    async def _watch(self) -> None:
-        assert self.proc is not None
-        proc = self.proc
+    async def _watch(self, proc: asyncio.subprocess.Process, owner: TreeOwner,
+                     readers: list[asyncio.Task[None]]) -> None:
         await proc.wait()
         for hook in self.on_exit:
             hook(proc.pid)
-        await asyncio.gather(*self._readers, return_exceptions=True)
+        # Its output ends when every process holding the pipes has exited. A launcher's
+        # children may outlive it (``stop`` ends them): then its last lines are not waited for.
+        if not owner.live():
+            await asyncio.wait(readers, timeout=DRAIN_S)
         # a restart swaps in a private event before the kill: set whichever is current
         self.exited.set()
 
@@ -118,11 +148,10 @@ class FlightProcess:
         return self.proc is not None and self.proc.returncode is None
 
     def kill(self) -> None:
-        """SIGKILL now (fault injection: the flight code killed)."""
-        if self.running:
-            assert self.proc is not None
+        """SIGKILL now, to every process of the command (fault injection: the flight code killed)."""
+        if self.running and self.owner is not None:
             self.killed_by_bench = True
-            self.proc.kill()
+            self.owner.kill_now()
 
     def begin_start(self) -> None:
         """A restart's downtime is over: its new process counts as running from now (the
@@ -143,12 +172,13 @@ class FlightProcess:
         gone = asyncio.Event()
         if self.proc is not None and not real.is_set():
             self.exited = gone  # the old process's _watch sets this one
-            if self.running:
-                self.proc.kill()
+            if self.owner is not None:
+                self.owner.kill_now()
         else:
             gone.set()
         try:
             await gone.wait()
+            await self._end_tree(0.0)  # the old tree's other processes too, before the new start
             if resume is not None:
                 await resume.wait()
         except asyncio.CancelledError:
@@ -166,20 +196,28 @@ class FlightProcess:
         finally:
             self.starting = False
 
-    async def stop(self, timeout_s: float = 3.0) -> int | None:
-        """SIGTERM, then SIGKILL after ``timeout_s``; returns the exit status."""
+    async def _end_tree(self, grace_s: float) -> None:
+        """End every process of the current start: SIGTERM to the group and every member,
+        ``grace_s`` to exit, SIGKILL to the rest (hil/flight/process_tree.py)."""
+        owner, proc = self.owner, self.proc
+        if owner is None or proc is None:
+            return
+        self.survivors = await owner.end(grace_s, lambda: proc.returncode is not None)
+        self._forget_hard_exit()
+        owner.close()
+        self.owner = None
+
+    async def stop(self, grace_s: float | None = None) -> int | None:
+        """End the command's whole process tree (SIGTERM, ``grace_s``, default the rig's
+        ``stop_grace_s``, then SIGKILL), take its last output lines; returns the exit status
+        of the command's own process."""
         if self.proc is None:
             return None
-        if self.running:
-            try:
-                self.proc.send_signal(signal.SIGTERM)
-            except ProcessLookupError:
-                pass
-            try:
-                await asyncio.wait_for(self.exited.wait(), timeout_s)
-            except TimeoutError:
-                self.kill()
-                await self.exited.wait()
-        else:
-            await self.exited.wait()
+        await self._end_tree(self.stop_grace_s if grace_s is None else grace_s)
+        await self.exited.wait()  # set once the root is reaped (done above) and its output drained
+        if self._readers:
+            # every writer is gone: the pipes are at their end (bounded: a holder outside the tree)
+            _, pending = await asyncio.wait(self._readers, timeout=DRAIN_S)
+            for task in pending:
+                task.cancel()
         return self.proc.returncode

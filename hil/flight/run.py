@@ -54,6 +54,7 @@ from hil.live.steer import attach_live
 from hil.live.topics import LiveConfig
 from hil.record.process import ProcessRecorder
 from hil.vtime.preload import Fallback
+from hil.vtime.stall import HiddenWait
 from hil.vtime.session import describe_stall
 
 PORTS = ("imu", "adc", "rc", "esc", "telemetry", "ground")
@@ -222,7 +223,7 @@ async def _acquire(stack: contextlib.AsyncExitStack, run: RunState, attachments:
         else:
             run.vt = opened
     with run_setup.started("preparing the flight code's process"):
-        flight = run.flight = run_setup.make_flight(stack, argv, logger, run.vt)
+        flight = run.flight = run_setup.make_flight(stack, argv, logger, run.vt, rig.flight.stop_grace_s)
     vt = run.vt
     loop = run.loop = TickLoop(
         devices, mode=run.mode, tick_ns=rig.tick_ns, duration_ns=run.duration_ns,
@@ -283,6 +284,9 @@ async def _fly_and_finish(run: RunState, rt: Any, wake: Any, hog: CpuHog, *, kee
         end, message = EndReason.INTERRUPTED, "interrupted (Ctrl-C)"
     except VirtualTimeRequired as exc:  # a fall-back during boot: finalize the log, then say so
         end, message, run.vt_refused = EndReason.ERROR, str(exc), exc
+    except HiddenWait as exc:  # a process of the flight command waits where the clock shim cannot see
+        end, message = EndReason.ERROR, str(exc)
+        logger.event(max(loop.t_ns, 0), "run", "hidden wait", {"error": str(exc)})
     except Exception as exc:  # a bench bug must still finalize the log
         end, message = EndReason.ERROR, f"bench error: {type(exc).__name__}: {exc}"
         # the traceback goes into the log: a bench bug is found from the run it spoiled

@@ -58,6 +58,8 @@ async def finish_run(run: RunState, end: EndReason, message: str, steal_ms: floa
     if vt is not None:
         vt.free_run()  # its shutdown and last words at the host's pace
     returncode = await despite_cancel(flight.stop())
+    for st in flight.survivors:  # stuck in the kernel: SIGKILL has not taken yet
+        run.note(f"process {st.pid} ({st.comm}) of the flight command was still there {st.state!r} after SIGKILL")
     with contextlib.suppress(Exception):
         await despite_cancel(asyncio.sleep(0))  # let the last stderr lines reach the logger
     for port in run.ports.values():

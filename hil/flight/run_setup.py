@@ -27,6 +27,7 @@ from hil.flight.process import FlightProcess
 from hil.flight.run_files import write_flight_config
 from hil.flight.rundir import make_run_dir
 from hil.flight.runlog import RunLogger
+from hil.flight.signals import on_hard_exit
 from hil.record.process import ProcessRecorder
 from hil.transport.base import Port
 from hil.transport.pty import PtyPort
@@ -70,6 +71,8 @@ def make_private_dir(stack: contextlib.AsyncExitStack, rig: Rig, *, keep: bool, 
     ``dev`` subdirectory; removed by the stack unless ``keep``."""
     run_dir = make_run_dir(f"{prefix}{rig.name}-")
     if not keep:
+        # a second Ctrl-C exits at once (hil/flight/signals.py): the directory goes then too
+        stack.callback(on_hard_exit(lambda: shutil.rmtree(run_dir, ignore_errors=True)))
         stack.callback(shutil.rmtree, run_dir, ignore_errors=True)
     (run_dir / "dev").mkdir(mode=0o700)
     return run_dir
@@ -150,10 +153,10 @@ def open_virtual_time(stack: contextlib.AsyncExitStack, run_dir: Path, ports: Ma
 
 
 def make_flight(stack: contextlib.AsyncExitStack, argv: list[str], logger: RunLogger,
-                vt: VirtualTime | None) -> FlightProcess:
-    """The flight code's process (started by the run); stopped by the stack if still running."""
+                vt: VirtualTime | None, stop_grace_s: float) -> FlightProcess:
+    """The flight code's process tree (started by the run); ended by the stack if still there."""
     flight = FlightProcess(argv, cwd=Path.cwd(), on_line=lambda stream, line: logger.flight_line(stream, line),
-                           env=vt.env if vt is not None else None)
+                           env=vt.env if vt is not None else None, stop_grace_s=stop_grace_s)
     if vt is not None:
         vt.bind(flight)
     stack.push_async_callback(_stop, flight, vt)
@@ -161,7 +164,7 @@ def make_flight(stack: contextlib.AsyncExitStack, argv: list[str], logger: RunLo
 
 
 async def _stop(flight: FlightProcess, vt: VirtualTime | None) -> None:
-    if flight.proc is not None and flight.running:
+    if flight.proc is not None and (flight.running or flight.owner is not None):  # its tree not ended yet
         if vt is not None:
             vt.free_run()  # its shutdown at the host's pace
         await flight.stop()

@@ -1,29 +1,90 @@
-"""Ctrl-C and SIGTERM as a cancel of the running task (``hil run``).
+"""Ctrl-C and SIGTERM as a cancel of the running task (``hil run``); a second one exits at once.
 
 A run cancelled this way ends as ``EndReason.INTERRUPTED`` and still stops the flight code,
 closes its ports and finalizes its log (hil/flight/run.py); a KeyboardInterrupt raised
-anywhere in the event loop would not give it that chance.
+anywhere in the event loop would not give it that chance. The stop takes at most the rig's
+``[flight] stop_grace_s`` plus the log's close. A second Ctrl-C or SIGTERM does not wait for
+that: what the run registered with :func:`on_hard_exit` (SIGKILL to the flight command's
+process tree, removal of the run directory) is done at once and the process exits with
+status 130; the recorder child then closes the log as aborted, or leaves a ``.part`` file
+that ``hil recover`` salvages.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import contextvars
+import os
 import signal
-from collections.abc import Awaitable
+from collections.abc import Awaitable, Callable
 from typing import TypeVar
 
 _T = TypeVar("_T")
 
+#: the exit status of a second Ctrl-C or SIGTERM (128 + SIGINT, as a shell reports Ctrl-C)
+HARD_EXIT_STATUS = 130
+
+
+class HardExit:
+    """What must be done before the process exits at once: each callback, last registered
+    first, errors ignored (the process is leaving)."""
+
+    def __init__(self) -> None:
+        self._actions: dict[int, Callable[[], None]] = {}
+        self._next = 0
+
+    def add(self, action: Callable[[], None]) -> Callable[[], None]:
+        key = self._next
+        self._next += 1
+        self._actions[key] = action
+
+        def take_back() -> None:
+            self._actions.pop(key, None)
+
+        return take_back
+
+    def run(self) -> None:
+        for key in sorted(self._actions, reverse=True):
+            with contextlib.suppress(Exception):
+                self._actions[key]()
+
+
+#: the hard exit of the run this task belongs to (set by ``cancelled_by_signals``)
+_HARD_EXIT: contextvars.ContextVar[HardExit | None] = contextvars.ContextVar("hil_hard_exit", default=None)
+
+
+def on_hard_exit(action: Callable[[], None]) -> Callable[[], None]:
+    """Have ``action`` done if a second signal makes this run's process exit at once; returns
+    the call that takes it back. Outside ``cancelled_by_signals`` it does nothing."""
+    hard = _HARD_EXIT.get()
+    if hard is None:
+        return lambda: None
+    return hard.add(action)
+
 
 async def cancelled_by_signals(aw: Awaitable[_T]) -> _T:
-    """Await ``aw`` with SIGINT and SIGTERM cancelling the current task meanwhile."""
+    """Await ``aw`` with SIGINT and SIGTERM cancelling the current task meanwhile; a second
+    one does the registered hard-exit actions and exits with status 130."""
     current = asyncio.current_task()
     assert current is not None
     loop = asyncio.get_running_loop()
+    hard = HardExit()
+    token = _HARD_EXIT.set(hard)
+    signalled: list[int] = []
+
+    def on_signal() -> None:
+        if signalled:
+            hard.run()
+            os._exit(HARD_EXIT_STATUS)
+        signalled.append(1)
+        current.cancel()
+
     for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, current.cancel)
+        loop.add_signal_handler(sig, on_signal)
     try:
         return await aw
     finally:
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.remove_signal_handler(sig)
+        _HARD_EXIT.reset(token)

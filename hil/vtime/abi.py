@@ -35,6 +35,8 @@ class State(enum.IntEnum):
 class Wait(enum.IntEnum):
     FD = 0  #: on fds and/or the slot's wake FIFO
     FUTEX = 1  #: on a lock, semaphore, condition variable or join
+    CHILD = 2  #: wait/waitpid/wait3/wait4/waitid: a child or tracee ends it
+    READ = 3  #: read/readv with nothing to read: its writer ends it
 
 
 class Call(enum.IntEnum):
@@ -57,6 +59,8 @@ class Call(enum.IntEnum):
     EPOLL_PWAIT2 = 14
     CPU_CLOCK = 15  #: CPU-time clocks, passed through by design
     SPIN_YIELD = 16  #: busy-waits on the clock turned into sim-time quanta
+    WAIT_CHILD = 17  #: waits for a child that blocked
+    READ_BLOCK = 18  #: reads that would block
     CLOCK_OTHER = 20  #: from here on: uncovered, these run on the host clock
     TIMERFD = 21
     TIMER_CREATE = 22

@@ -50,11 +50,13 @@ class ThreadView:
     seen_epoch: int
     keys: tuple[tuple[int, int], ...] | None  #: (rdev key, poll events); None: not known (epoll)
     spin_yields: int
-    futex: bool = False  #: blocked on a lock/semaphore/condition/join of its own process
+    #: how a blocked thread waits (``abi.Wait``): on fds and its wake FIFO (FD), or in a wait
+    #: another thread or process ends (FUTEX, CHILD, READ: the kernel must have it asleep)
+    wait_kind: int = 0
 
     def __init__(self, index: int, tid: int, pid: int, seq: int, blocked: bool, deadline_ns: int | None, cpu_ns: int,
                  seen_epoch: int, keys: tuple[tuple[int, int], ...] | None, spin_yields: int,
-                 futex: bool = False) -> None:
+                 wait_kind: int = 0) -> None:
         # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "index", index)
         object.__setattr__(self, "tid", tid)
@@ -66,7 +68,12 @@ class ThreadView:
         object.__setattr__(self, "seen_epoch", seen_epoch)
         object.__setattr__(self, "keys", keys)
         object.__setattr__(self, "spin_yields", spin_yields)
-        object.__setattr__(self, "futex", futex)
+        object.__setattr__(self, "wait_kind", wait_kind)
+
+    @property
+    def confirmed(self) -> bool:
+        """A wait the bench cannot end and must see asleep in the kernel (not on fds)."""
+        return self.wait_kind != _FD
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
         return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)
@@ -90,7 +97,7 @@ _KEYS_UNKNOWN: Final = int(abi.KEYS_UNKNOWN)
 _MAX_KEYS: Final = int(abi.MAX_KEYS)
 _NO_DEADLINE: Final = int(abi.NO_DEADLINE)
 _BLOCKED: Final = int(abi.State.BLOCKED)
-_FUTEX: Final = int(abi.Wait.FUTEX)
+_FD: Final = int(abi.Wait.FD)
 
 
 def _view(index: int, raw: tuple[int, ...]) -> ThreadView:
@@ -106,8 +113,7 @@ def _view(index: int, raw: tuple[int, ...]) -> ThreadView:
         index, raw[_TID], raw[_PID], seq,
         bool(seq & 1) and raw[_STATE] == _BLOCKED,
         None if deadline == _NO_DEADLINE else deadline,
-        raw[_CPU], raw[_SEEN_EPOCH], keys, raw[_SPIN_YIELDS],
-        raw[_WAIT_KIND] == _FUTEX,
+        raw[_CPU], raw[_SEEN_EPOCH], keys, raw[_SPIN_YIELDS], raw[_WAIT_KIND],
     )
 
 
@@ -288,7 +294,8 @@ class ControlBlock:
 
 def asleep_in_kernel(pid: int, tid: int) -> bool:
     """True if the kernel has thread ``tid`` asleep (state S or D) or gone (no task, a zombie Z,
-    dead X): a futex wake-up makes a thread runnable (R) before it returns to the shim."""
+    dead X): a futex wake-up, a child's exit or a pipe write makes a thread runnable (R)
+    before it returns to the shim."""
     try:
         with open(f"/proc/{pid}/task/{tid}/stat", "rb") as f:
             return _sleeping(f.read())

@@ -33,6 +33,10 @@ enum hvt_wait {
     HVT_WAIT_FD = 0,    /* on fds and/or its wake FIFO: the bench can end it */
     HVT_WAIT_FUTEX = 1, /* on a lock, semaphore, condition or join: another thread ends it
                          * (the bench checks /proc that the kernel has it asleep) */
+    HVT_WAIT_CHILD = 2, /* wait, waitpid, wait3, wait4, waitid: a child or tracee of the flight
+                         * command's process tree ends it (kernel-confirmed, like FUTEX) */
+    HVT_WAIT_READ = 3,  /* read/readv on a descriptor with nothing to read: its writer ends it
+                         * (kernel-confirmed; key_rdev names it if it is a character device) */
 };
 
 /* slot.state */
@@ -62,6 +66,8 @@ enum hvt_call {
     HVT_CALL_EPOLL_PWAIT2,
     HVT_CALL_CPU_CLOCK,        /* CPU-time clocks: passed through by design */
     HVT_CALL_SPIN_YIELD,       /* busy-wait on the clock detected: a quantum of sim time granted */
+    HVT_CALL_WAIT_CHILD,       /* a wait for a child that blocked (published as HVT_WAIT_CHILD) */
+    HVT_CALL_READ_BLOCK,       /* a read that would block (published as HVT_WAIT_READ) */
     HVT_CALL_FIRST_UNCOVERED = 20,
     HVT_CALL_CLOCK_OTHER = 20, /* clock_gettime/clock_nanosleep on a clock the shim does not model */
     HVT_CALL_TIMERFD,

@@ -8,6 +8,12 @@ is readable, no deadline has passed), and every byte either side wrote has been 
 Then nothing the flight code does depends on how fast the host is, and the next event is
 either the next tick or the earliest deadline the flight code is waiting for.
 
+The flight code is the whole process tree of the rig's command (a launcher such as ``sh -c``,
+``make`` or ``strace -f`` and what it starts, ``hil/vtime/tree.py``): every process of it must
+have its threads in slots, or be gone. A launcher waiting for its child or reading a pipe is
+blocked in an interposed wait the kernel confirms (``abi.Wait.CHILD``, ``READ``); one that
+waits where the shim cannot see ends the run once confirmed (``hil/vtime/hidden.py``).
+
 Why the check is exact: the bytes are settled by polls that run the ptys' pending delivery
 first (``hil/vtime/port_io.py``); the shim publishes the device numbers it waits on before
 it sleeps, and re-reads the slot's sequence number after the check to catch a thread that
@@ -21,23 +27,15 @@ import select
 from collections.abc import Callable, Mapping
 
 from hil import clock
-from hil.vtime.control import ControlBlock, ThreadStates, ThreadView, pid_alive
+from hil.vtime import hidden
+from hil.vtime.control import ControlBlock, ThreadStates, ThreadView
 from hil.vtime.port_io import PortBytes, ScheduledPort
-from hil.vtime.stall import ShimLost, Stall, shim_mapped
+from hil.vtime.stall import HiddenWait, ShimLost, Stall, shim_mapped
+from hil.vtime.tree import ProcessTree, exited
 
 # the port protocol and the stall records are used here and stay importable from here
-__all__ = [
-    "INLINE_BUDGET_S",
-    "INLINE_WAIT_S",
-    "SETTLE_FIRST_S",
-    "SETTLE_MAX_S",
-    "ScheduledPort",
-    "ShimLost",
-    "Stall",
-    "VirtualClock",
-    "resolve_pending",
-    "shim_mapped",
-]
+__all__ = ["HiddenWait", "INLINE_BUDGET_S", "INLINE_WAIT_S", "SETTLE_FIRST_S", "SETTLE_MAX_S", "ScheduledPort",
+           "ShimLost", "Stall", "VirtualClock", "resolve_pending", "shim_mapped"]
 
 POLLIN, POLLPRI, POLLOUT = select.POLLIN, select.POLLPRI, select.POLLOUT
 #: re-check pauses (wall s) while a futex waiter is on its way to sleep
@@ -86,7 +84,10 @@ class VirtualClock:
         self.t_ns = 0
         self.pid: int | None = None
         self._woken: dict[int, int] = {}  #: slot -> the seq it was woken at (wake once per wait)
-        self._cpu_last = 0
+        #: slot -> (tid, its CPU time at the last ``cpu_ns``), every process of the tree
+        self._cpu_last: dict[int, tuple[int, int]] = {}
+        #: every process the flight command started (None until a process is attached)
+        self._tree: ProcessTree | None = None
         self.stall_warn_s = stall_warn_s
         self.on_stall = on_stall
         #: the shim's path: checked in /proc/<pid>/maps when the flight code stalls
@@ -134,6 +135,9 @@ class VirtualClock:
         self.pid = pid
         self._woken.clear()
         self._events += 1
+        if self._tree is not None:
+            self._tree.close()
+        self._tree = ProcessTree(pid) if pid is not None else None
 
     def attached(self) -> bool:
         return self.pid is not None and self.pid in self.ctl.attached_pids()
@@ -180,7 +184,7 @@ class VirtualClock:
                 self._wake(t)
 
     def _wake(self, t: ThreadView) -> None:
-        if t.futex:
+        if t.confirmed:
             self._events += 1  # it ends on the host clock by itself (a futex cannot wait on our
             return  # FIFO): whatever was found idle before is not any more
         if self._woken.get(t.index) != t.seq:
@@ -189,10 +193,16 @@ class VirtualClock:
             self.ctl.wake(t.index)
 
     def cpu_ns(self) -> int:
-        """CPU time the flight code used since the last call (all its threads, as each last
-        published it when it blocked), ns of this host."""
-        total = sum(t.cpu_ns for t in self._threads() if t.pid == self.pid)
-        delta, self._cpu_last = total - self._cpu_last, total
+        """CPU time the flight code used since the last call (every thread of every process of
+        its tree, as each last published it when it blocked), ns of this host."""
+        last = self._cpu_last
+        now: dict[int, tuple[int, int]] = {}
+        delta = 0
+        for t in self._threads():
+            before = last.get(t.index)
+            delta += t.cpu_ns - (before[1] if before is not None and before[0] == t.tid else 0)
+            now[t.index] = (t.tid, t.cpu_ns)
+        self._cpu_last = now
         return max(delta, 0)
 
     # -- bytes ------------------------------------------------------------------------------------------
@@ -229,22 +239,24 @@ class VirtualClock:
             return True
         self._idle_at = None
         threads = self.ctl.threads()
-        mine = [t for t in threads if t.pid == self.pid]
-        if not mine:
+        root = self.pid
+        if not any(t.pid == root for t in threads):
             return False  # not attached yet, or restarting: nothing to schedule
         for t in threads:
             if not t.blocked:
-                if t.pid != self.pid and not pid_alive(t.pid):
-                    self.ctl.clear_process(t.pid)  # a child of the flight code that is gone
+                if t.pid != root and exited(t.pid):
+                    self.ctl.clear_process(t.pid)  # a process of the tree that is gone
                     continue
                 return False
+        if self._tree is not None and not self._tree.all_in_slots(threads):
+            return False  # a process of the tree runs or waits where the shim cannot see
         # the descriptors its waits are on, ours only (the bench does not control when any
         # other becomes ready); judged after the bytes are settled, before the verdict
         readable: list[int] = []
         writable: list[int] = []
         by_key = self._by_key
         for t in threads:
-            if t.keys is None or t.futex:
+            if t.keys is None:
                 continue
             for key, events in t.keys:
                 port = by_key.get(key)
@@ -261,9 +273,9 @@ class VirtualClock:
             if t.deadline_ns is not None and t.deadline_ns <= now:
                 self._wake(t)
                 return False
-            if t.futex:
+            if t.confirmed:
                 if t.tid < 0 or not self._states.asleep(t.pid, t.tid):
-                    self._settling = True  # another thread just woke it, or it is about to sleep
+                    self._settling = True  # another thread or process just woke it, or it is about to sleep
                     return False
                 continue
             if t.keys is None and t.seen_epoch != epoch:
@@ -274,7 +286,7 @@ class VirtualClock:
             return False  # it is waking up (or about to) on bytes already there
         if not all(self.ctl.seq(t.index) == t.seq for t in threads):
             return False
-        if not any(t.futex and t.deadline_ns is not None for t in threads):
+        if not any(t.confirmed and t.deadline_ns is not None for t in threads):
             # a timed futex wait ends on the host clock without telling anyone: never cached
             self._idle_at, self._snapshot = (self._events, self._written.count), threads
         return True
@@ -284,7 +296,9 @@ class VirtualClock:
 
         Waits on the shim's notifications (a thread blocked) and on ``poke``; nothing polls.
         After ``stall_warn_s`` of wall time without idle, ``on_stall`` hears about it once
-        (a debugger stop or a SIGSTOP is not an error: the wait goes on).
+        (a debugger stop or a SIGSTOP is not an error: the wait goes on); a process that
+        waits where the shim cannot see raises :class:`HiddenWait` once confirmed
+        (``hil/vtime/hidden.py``).
 
         Waits are made inline (:meth:`_wait_inline`) while the event loop has had a turn
         within ``INLINE_BUDGET_S``; past that this call yields to the loop first, so a run
@@ -294,8 +308,7 @@ class VirtualClock:
         if loop.time() >= self._turn_due:
             await asyncio.sleep(0)
             self._turn_due = loop.time() + INLINE_BUDGET_S
-        stall_at: float | None = None
-        reported = False
+        watch: hidden.StallWatch | None = None
         settle_s = SETTLE_FIRST_S
         ask = True  # whether ``running`` may have changed: only a turn of the event loop
         while True:  # reaps a process or runs a restart, so an inline wait cannot change it
@@ -309,11 +322,12 @@ class VirtualClock:
             ask = True
             self._turn_due = loop.time() + INLINE_BUDGET_S  # the event loop turns below
             self.loop_waits += 1
-            if stall_at is None:
-                stall_at = loop.time() + self.stall_warn_s
+            if watch is None:
+                watch = hidden.StallWatch(loop.time(), self.stall_warn_s)
             waiter = loop.create_future()
             self._waiter = waiter
-            handle = None if reported else loop.call_at(stall_at, resolve_pending, waiter)
+            # the stall warning, then a look for a hidden wait every CONFIRM_S
+            handle = loop.call_at(watch.due, resolve_pending, waiter)
             # a thread between its futex-wait notification and its sleep: look again after a
             # short, growing pause (the only wait here that is not an event)
             recheck = loop.call_later(settle_s, resolve_pending, waiter) if self._settling else None
@@ -322,16 +336,11 @@ class VirtualClock:
                 await waiter
             finally:
                 self._waiter = None
-                if handle is not None:
-                    handle.cancel()
+                handle.cancel()
                 if recheck is not None:
                     recheck.cancel()
-            if not reported and loop.time() >= stall_at:
-                reported = True
-                self._check_shim()
-                self.stalls += 1
-                if self.on_stall is not None:
-                    self.on_stall(Stall(self.stall_warn_s, tuple(self.ctl.threads())))
+            if loop.time() >= watch.due:
+                self._look(watch)
 
     def _wait_inline(self) -> bool:
         """Wait for what ends an idle wait without a turn of the event loop, and handle it as
@@ -359,19 +368,23 @@ class VirtualClock:
             self._master[fd].drain_queued()
         return True
 
-    def _check_shim(self) -> None:
-        """Raise :class:`ShimLost` if the flight code exec'd itself out of the shim."""
-        if self.library is None or self.pid is None:
-            return
-        if shim_mapped(self.pid, self.library) is False:
-            raise ShimLost(f"the flight code (pid {self.pid}) runs without the clock shim: it exec'd a program "
-                           "without LD_PRELOAD (a wrapper such as `env -u LD_PRELOAD` or `sudo`, or a "
-                           "set-user-ID helper)")
+    def _look(self, watch: hidden.StallWatch) -> None:
+        """A wait for idle has lasted: the stall warning (once), or raise :class:`HiddenWait`
+        for a process confirmed to wait where the shim cannot see."""
+        if not watch.reported and self.pid is not None:
+            hidden.check_shim(self.pid, self.library)
+        found = hidden.suspects(self._tree, self.ctl.threads(), self.library) if self._tree is not None else []
+        if watch.look(self._loop.time(), found):
+            self.stalls += 1
+            if self.on_stall is not None:
+                self.on_stall(Stall(self.stall_warn_s, tuple(self.ctl.threads()), hidden.unseen_lines(found)))
 
     def close(self) -> None:
         if not self._closed:
             self._closed = True
             self._states.close()
+            if self._tree is not None:
+                self._tree.close()
             self._loop.remove_reader(self.ctl.notify_fd)
 
 

@@ -43,6 +43,10 @@
 #include <sys/sysmacros.h>
 #include <sys/time.h>
 #include <sys/timerfd.h>
+#include <sys/resource.h>
+#include <sys/uio.h>
+#include <sys/wait.h>
+#include <termios.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -95,6 +99,11 @@ typedef int (*cond_clockwait_fn)(pthread_cond_t *, pthread_mutex_t *, clockid_t,
 typedef int (*sem_timedwait_fn)(sem_t *, const struct timespec *);
 typedef int (*sem_clockwait_fn)(sem_t *, clockid_t, const struct timespec *);
 typedef int (*mutex_timedlock_fn)(pthread_mutex_t *, const struct timespec *);
+typedef pid_t (*wait4_fn)(pid_t, int *, int, struct rusage *);
+typedef int (*waitid_fn)(idtype_t, id_t, siginfo_t *, int);
+typedef ssize_t (*read_fn)(int, void *, size_t);
+typedef ssize_t (*readv_fn)(int, const struct iovec *, int);
+typedef ssize_t (*read_chk_fn)(int, void *, size_t, size_t);
 
 static void *real_sym(const char *name, const char *version) {
     void *p = NULL;
@@ -251,8 +260,9 @@ static int open_wake_fd(int index) {
 }
 
 static void drain(int fd) {
+    REAL(read, read_fn); /* not our read(): a wake FIFO is never a wait of the flight code */
     char buf[64];
-    while (read(fd, buf, sizeof buf) > 0) {
+    while (real_read(fd, buf, sizeof buf) > 0) {
     }
 }
 
@@ -901,6 +911,118 @@ EXPORT int pthread_join(pthread_t thread, void **retval) {
     struct hvt_slot *s = futex_enter(HVT_NO_DEADLINE);
     int r = real_pthread_join(thread, retval);
     futex_leave(s);
+    return r;
+}
+
+/* ---- waits on other processes: children, tracees, pipe writers --------------------------
+ *
+ * A launcher (sh -c, make, strace, gdb, a script) waits for the flight code it started, or
+ * reads what another process of the tree writes. Such a wait ends when another process of
+ * the tree acts, so it is idle as far as the bench is concerned, like a futex wait: the slot
+ * is published BLOCKED with its kind and the bench confirms in /proc that the kernel has the
+ * thread asleep. A wait that can end at once is made without publishing (a WNOHANG probe, a
+ * zero-timeout poll), so the slot is BLOCKED only where the real call will sleep.
+ */
+
+
+static struct hvt_slot *other_enter(const struct pollfd *fd, uint32_t kind) {
+    struct hvt_slot *s = my_slot();
+    if (!s || free_running())
+        return NULL;
+    count(kind == HVT_WAIT_CHILD ? HVT_CALL_WAIT_CHILD : HVT_CALL_READ_BLOCK);
+    publish_blocked(s, fd, fd ? 1 : 0, HVT_NO_DEADLINE, load_u32(&H->epoch), 0, kind);
+    notify_bench();
+    return s;
+}
+
+/* Running again; errno as the real call left it. */
+static void other_leave(struct hvt_slot *s) {
+    if (s) {
+        int saved = errno;
+        publish_running(s);
+        errno = saved;
+    }
+}
+
+static pid_t child_wait(pid_t pid, int *status, int options, struct rusage *ru) {
+    REAL(wait4, wait4_fn);
+    if (!active() || (options & WNOHANG))
+        return real_wait4(pid, status, options, ru);
+    pid_t r = real_wait4(pid, status, options | WNOHANG, ru);
+    if (r != 0)
+        return r; /* a child had changed state already, or none can (ECHILD) */
+    struct hvt_slot *s = other_enter(NULL, HVT_WAIT_CHILD);
+    r = real_wait4(pid, status, options, ru);
+    other_leave(s);
+    return r;
+}
+
+EXPORT pid_t wait4(pid_t pid, int *status, int options, struct rusage *ru) {
+    return child_wait(pid, status, options, ru);
+}
+
+EXPORT pid_t wait3(int *status, int options, struct rusage *ru) { return child_wait(-1, status, options, ru); }
+
+EXPORT pid_t waitpid(pid_t pid, int *status, int options) { return child_wait(pid, status, options, NULL); }
+
+EXPORT pid_t wait(int *status) { return child_wait(-1, status, 0, NULL); }
+
+EXPORT int waitid(idtype_t idtype, id_t id, siginfo_t *info, int options) {
+    REAL(waitid, waitid_fn);
+    if (!active() || (options & WNOHANG))
+        return real_waitid(idtype, id, info, options);
+    info->si_pid = 0; /* WNOHANG with nothing to report leaves it 0 (waitid(2)) */
+    int r = real_waitid(idtype, id, info, options | WNOHANG);
+    if (r != 0 || info->si_pid != 0)
+        return r;
+    struct hvt_slot *s = other_enter(NULL, HVT_WAIT_CHILD);
+    r = real_waitid(idtype, id, info, options);
+    other_leave(s);
+    return r;
+}
+
+/* A read of fd would sleep: nothing to read now, a blocking descriptor, and no termios
+ * timeout (a tty read with VTIME ends on the host clock: left to run as a plain call).
+ * Only for threads that already have a slot; the ready path costs one zero-timeout poll. */
+static struct hvt_slot *read_enter(int fd) {
+    REAL(ppoll, ppoll_fn);
+    static const struct timespec zero = {0, 0};
+    if (tl_claim != 1 || !active() || free_running())
+        return NULL;
+    struct pollfd p = {.fd = fd, .events = POLLIN, .revents = 0};
+    if (real_ppoll(&p, 1, &zero, NULL) != 0)
+        return NULL; /* readable, at its end, or an error the read itself reports */
+    int flags = fcntl(fd, F_GETFL);
+    if (flags < 0 || (flags & O_NONBLOCK))
+        return NULL;
+    struct termios tio;
+    if (tcgetattr(fd, &tio) == 0 && !(tio.c_lflag & ICANON) && tio.c_cc[VTIME] != 0)
+        return NULL;
+    return other_enter(&p, HVT_WAIT_READ);
+}
+
+EXPORT ssize_t read(int fd, void *buf, size_t n) {
+    REAL(read, read_fn);
+    struct hvt_slot *s = read_enter(fd);
+    ssize_t r = real_read(fd, buf, n);
+    other_leave(s);
+    return r;
+}
+
+EXPORT ssize_t readv(int fd, const struct iovec *iov, int n) {
+    REAL(readv, readv_fn);
+    struct hvt_slot *s = read_enter(fd);
+    ssize_t r = real_readv(fd, iov, n);
+    other_leave(s);
+    return r;
+}
+
+/* What read() becomes in a program built with _FORTIFY_SOURCE when the buffer's size is known. */
+EXPORT ssize_t __read_chk(int fd, void *buf, size_t n, size_t buflen) {
+    REAL(__read_chk, read_chk_fn);
+    struct hvt_slot *s = read_enter(fd);
+    ssize_t r = real___read_chk(fd, buf, n, buflen);
+    other_leave(s);
     return r;
 }
 

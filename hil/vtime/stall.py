@@ -1,6 +1,6 @@
 """When the flight code keeps the bench waiting: the record of a stall (what its threads were
-doing) and the one stall that ends virtual time, the flight code running without the clock
-shim (docs/time.md).
+doing) and the stalls that end virtual time: the flight code running without the clock shim,
+and a process of the flight command waiting where the shim cannot see (docs/time.md).
 """
 
 from __future__ import annotations
@@ -20,6 +20,14 @@ class ShimLost(RuntimeError):
     host's from then on and it will never report idle, so virtual time cannot go on."""
 
 
+@mypyc_attr(native_class=False)  # compiled classes cannot derive from RuntimeError
+class HiddenWait(RuntimeError):
+    """A process of the flight command's tree stayed blocked in a call the clock shim does not
+    interpose (``pause``, a static program's ``nanosleep``, ``system()``'s internal wait), or
+    never loaded the shim: the bench cannot tell whether it is idle, so virtual time cannot go
+    on. The message is one sentence naming the process and what it waits in."""
+
+
 def shim_mapped(pid: int, library: str) -> bool | None:
     """Whether process ``pid`` has ``library`` mapped (None if it is gone)."""
     try:
@@ -35,6 +43,8 @@ class Stall:
 
     waited_s: float
     threads: tuple[ThreadView, ...]
+    #: what each slot-less process of the flight command's tree was doing ("pid 12 (sleep) ...")
+    unseen: tuple[str, ...] = ()
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
         return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)

@@ -22,7 +22,7 @@ async def flight(tmp_path: Path) -> FlightProcess:
     proc = FlightProcess([SLEEP, "30"], cwd=tmp_path, on_line=lambda stream, line: None)
     await proc.start()
     yield proc
-    await proc.stop(timeout_s=1.0)
+    await proc.stop(grace_s=1.0)
 
 
 async def test_kill_ends_the_flight_code(rig: Rig, flight: FlightProcess) -> None:

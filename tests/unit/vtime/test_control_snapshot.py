@@ -24,7 +24,7 @@ def reference_threads(cb: ControlBlock) -> list[ThreadView]:
         out.append(ThreadView(
             i, s.tid, s.pid, s.seq, bool(s.seq & 1) and s.state == abi.State.BLOCKED,
             None if s.deadline_ns == abi.NO_DEADLINE else s.deadline_ns, s.cpu_ns, s.seen_epoch, keys,
-            s.spin_yields, s.wait_kind == abi.Wait.FUTEX,
+            s.spin_yields, s.wait_kind,
         ))
     return out
 
