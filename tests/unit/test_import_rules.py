@@ -64,7 +64,7 @@ JOBS = {"hil.flight", "hil.analysis", "hil.fleet", "hil.host", "hil.perf", "hil.
 FORBIDDEN = {
     # beneath the jobs
     "hil/plant": JOBS, "hil/faults": JOBS, "hil/record": JOBS, "hil/transport": JOBS, "hil/vtime": JOBS,
-    "hil/config": JOBS,
+    "hil/config": JOBS, "hil/board": JOBS,
     # what a run or a log says: read-only, never starts a flight
     "hil/analysis": JOBS - {"hil.analysis"},
     # one flight knows nothing of many flights, of users' tests, of benchmarks or of the command line

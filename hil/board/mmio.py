@@ -1,0 +1,139 @@
+"""The core's peripheral accesses, handed to the peripheral bus (emulators/lpc2148's
+:class:`~emulators.lpc2148.Lpc2148Bus`, or any object with the same methods).
+
+An access is timed at the first cycle of the basic block that makes it (Unicorn does not keep
+the PC current inside a block; the error is at most the block's own cycles). An APB access
+costs two PCLK cycles in place of the core's one N cycle (the AMBA APB protocol's setup and
+access phases: 2 x VPBDIV - 1 extra CCLK cycles); the VIC, on the AHB, none.
+
+A callback never stops the emulation itself (Unicorn would re-run the access's instruction);
+it asks the cycle counter to stop at the next block boundary, when an access raised an error,
+put the core to sleep or asserted an interrupt line.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from typing import Protocol
+
+from unicorn import Uc
+from unicorn.unicorn_py3 import unicorn as _ucmod
+
+from hil.board.native import CycleCounter
+
+APB_BASE, APB_SIZE = 0xE000_0000, 0x0020_0000
+AHB_BASE, AHB_SIZE = 0xFFFF_F000, 0x0000_1000  # the VIC
+SCB_BASE = 0xE01F_C000
+SLOT_SHIFT = 14  # APB peripherals sit in 16 KB slots
+
+ReadCb = ctypes.CFUNCTYPE(ctypes.c_uint64, ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint, ctypes.c_void_p)
+WriteCb = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint, ctypes.c_uint64, ctypes.c_void_p)
+
+
+class SystemControlView(Protocol):
+    """What the core's memory timing needs from the system control block."""
+
+    mamcr: int
+    mamtim: int
+
+    @property
+    def pclk_div(self) -> int: ...
+
+
+class PeripheralBus(Protocol):
+    """The peripheral side of the LPC2148, in CCLK cycles."""
+
+    scb: SystemControlView
+
+    def read(self, address: int, width: int, cycle: int) -> int: ...
+
+    def write(self, address: int, value: int, width: int, cycle: int) -> None: ...
+
+    def advance_to(self, cycle: int) -> None: ...
+
+    def next_event_cycle(self) -> int | None: ...
+
+    @property
+    def irq_request(self) -> bool: ...
+
+    @property
+    def fiq_request(self) -> bool: ...
+
+    @property
+    def sleeping(self) -> bool: ...
+
+
+class MmioBridge:
+    """The MMIO regions of one engine, routed to ``bus``."""
+
+    def __init__(self, uc: Uc, counter: CycleCounter, bus: PeripheralBus) -> None:
+        self.bus = bus
+        self.counter = counter
+        self.state = counter.state
+        self.fault: BaseException | None = None
+        self.apb_accesses = 0
+        self.apb_wait = 1
+        #: the interrupt lines as the run loop last saw them: an access that raises one stops
+        #: the slice so that the run loop can take it
+        self.irq_seen = self.fiq_seen = False
+        self._callbacks: list[object] = []
+        for base, size in ((APB_BASE, APB_SIZE), (AHB_BASE, AHB_SIZE)):
+            read, write = ReadCb(self._reader(base)), WriteCb(self._writer(base))
+            self._callbacks += [read, write]  # alive as long as the engine
+            err = _ucmod.uclib.uc_mmio_map(uc._uch, base, size, ctypes.cast(read, ctypes.c_void_p), None,
+                                           ctypes.cast(write, ctypes.c_void_p), None)
+            if err:
+                raise RuntimeError(f"uc_mmio_map({base:#x}) failed: error {err}")
+        self.memory_timing_changed()
+
+    def memory_timing_changed(self) -> None:
+        """Take MAMCR, MAMTIM and VPBDIV from the bus into the cycle counter."""
+        scb = self.bus.scb
+        self.state.mam_mode = scb.mamcr if scb.mamcr in (0, 1, 2) else 0
+        self.state.mam_cycles = max(scb.mamtim, 1)
+        self.apb_wait = 2 * scb.pclk_div - 1
+
+    def _reader(self, base: int):  # type: ignore[no-untyped-def]
+        apb = base == APB_BASE
+
+        def read(_uc: int, offset: int, size: int, _user: int) -> int:
+            state = self.state
+            try:
+                value = self.bus.read(base + offset, size, state.block_start)
+                if apb:
+                    state.cycles += self.apb_wait
+                    self.apb_accesses += 1
+                self._after_access()
+                return value
+            except BaseException as e:  # noqa: BLE001 - handed to the run loop, never lost in ctypes
+                self._failed(e)
+                return 0
+        return read
+
+    def _writer(self, base: int):  # type: ignore[no-untyped-def]
+        apb = base == APB_BASE
+
+        def write(_uc: int, offset: int, size: int, value: int, _user: int) -> None:
+            state = self.state
+            address = base + offset
+            try:
+                self.bus.write(address, value, size, state.block_start)
+                if apb:
+                    state.cycles += self.apb_wait
+                    self.apb_accesses += 1
+                    if address >> SLOT_SHIFT == SCB_BASE >> SLOT_SHIFT:
+                        self.memory_timing_changed()
+                self._after_access()
+            except BaseException as e:  # noqa: BLE001
+                self._failed(e)
+        return write
+
+    def _after_access(self) -> None:
+        bus = self.bus
+        if bus.sleeping or (bus.irq_request and not self.irq_seen) or (bus.fiq_request and not self.fiq_seen):
+            self.state.stop_request = 1
+
+    def _failed(self, e: BaseException) -> None:
+        if self.fault is None:
+            self.fault = e
+        self.state.stop_request = 1
