@@ -14,6 +14,27 @@
 #include "log.h"
 #include "toml_lite.h"
 
+/* A value as Python's str() shows it in a message: integers plain, floats as the shortest
+ * text that reads back as the same single-precision value (the config holds float32). */
+static const char *num(double v, bool is_int, char *buf, size_t cap)
+{
+    float f = (float)v;
+    if (is_int) {
+        snprintf(buf, cap, "%lld", (long long)v);
+        return buf;
+    }
+    if (!isfinite(f) || (f == floorf(f) && fabsf(f) < 1e16f)) {
+        toml_float_repr((double)f, buf, cap);
+        return buf;
+    }
+    for (int prec = 1; prec <= 9; prec++) {
+        snprintf(buf, cap, "%.*g", prec, (double)f);
+        if (strtof(buf, NULL) == f)
+            break;
+    }
+    return buf;
+}
+
 void cfg_defaults(fc_config_t *c)
 {
     memset(c, 0, sizeof *c);
@@ -408,9 +429,17 @@ static bool on_value(void *ctx, const char *key, const toml_value_t *v)
             return error(err, key, __VA_ARGS__); \
     } while (0)
 
+static bool is_int_key(const char *key)
+{
+    for (size_t i = 0; i < cfg_n_keys; i++)
+        if (!strcmp(cfg_keys[i].key, key))
+            return cfg_keys[i].kind == CK_INT;
+    return false;
+}
+
 static bool check(const fc_config_t *c, cfg_error_t *err)
 {
-    const struct { const char *key; double v; } positive[] = {
+    const struct { const char *key; double v; } positive[] = { /* integer keys: see is_int_key */
         {"imu.rate_hz", (double)c->imu.rate_hz}, {"imu.reply_timeout_s", c->imu.reply_timeout_s},
         {"adc.vref_V", c->adc.vref_V}, {"adc.read_timeout_s", c->adc.read_timeout_s},
         {"adc.reply_timeout_s", c->adc.reply_timeout_s}, {"adc.resync_interval_s", c->adc.resync_interval_s},
@@ -462,20 +491,24 @@ static bool check(const fc_config_t *c, cfg_error_t *err)
     int64_t max_rc = 0;
     unsigned adc_seen = 0, rc_seen_ok = 1;
 
+    char b[40];
     for (size_t i = 0; i < sizeof positive / sizeof positive[0]; i++)
-        NEED(positive[i].v > 0, positive[i].key, "must be > 0 (got %g)", positive[i].v);
+        NEED(positive[i].v > 0, positive[i].key, "must be > 0 (got %s)",
+             num(positive[i].v, is_int_key(positive[i].key), b, sizeof b));
     NEED(c->plausibility.baro_flat_readings == 0 || c->plausibility.baro_flat_readings >= 2,
          "plausibility.baro_flat_readings", "must be 0 (off) or >= 2 (got %lld)",
          (long long)c->plausibility.baro_flat_readings);
     NEED(c->plausibility.baro_motion_window_s == 0 ||
              c->plausibility.baro_motion_window_s >= 2 * c->plausibility.baro_motion_block_s,
          "plausibility.baro_motion_window_s",
-         "must be 0 (off) or at least two blocks of baro_motion_block_s (got %g)",
-         (double)c->plausibility.baro_motion_window_s);
+         "must be 0 (off) or at least two blocks of baro_motion_block_s (got %s)",
+         num(c->plausibility.baro_motion_window_s, false, b, sizeof b));
     NEED(c->adc.baro.rail_margin_V >= 0.0f && c->adc.baro.rail_margin_V < 0.25f * c->adc.vref_V,
-         "adc.baro.rail_margin_V", "must be >= 0 and < a quarter of vref_V (got %g)", (double)c->adc.baro.rail_margin_V);
+         "adc.baro.rail_margin_V", "must be >= 0 and < a quarter of vref_V (got %s)",
+         num(c->adc.baro.rail_margin_V, false, b, sizeof b));
     for (size_t i = 0; i < sizeof non_negative / sizeof non_negative[0]; i++)
-        NEED(non_negative[i].v >= 0, non_negative[i].key, "must be >= 0 (got %g)", non_negative[i].v);
+        NEED(non_negative[i].v >= 0, non_negative[i].key, "must be >= 0 (got %s)",
+             num(non_negative[i].v, is_int_key(non_negative[i].key), b, sizeof b));
     for (int i = 0; i < 5; i++) {
         char key[40];
         if (!ports[i]->present)
@@ -544,12 +577,12 @@ static bool check(const fc_config_t *c, cfg_error_t *err)
     NEED(0 <= c->telemetry.dest16 && c->telemetry.dest16 <= 0xFFFF, "telemetry.dest16", "must be a 16-bit address");
     NEED(!c->telemetry.enable || c->ports.telemetry.present, "ports.telemetry", "missing (telemetry.enable is true)");
     NEED(c->kf.ground_effect_r_scale >= 1.0f, "kf.ground_effect_r_scale",
-         "must be >= 1 (1 = no ground-effect allowance; got %g)", (double)c->kf.ground_effect_r_scale);
+         "must be >= 1 (1 = no ground-effect allowance; got %s)", num(c->kf.ground_effect_r_scale, false, b, sizeof b));
     NEED(c->failsafe.imu_timeout_s > cfg_T_s(c), "failsafe.imu_timeout_s", "must be longer than one sample period");
     NEED(0.0f < c->modes.landed_collective_ratio && c->modes.landed_collective_ratio < 1.0f,
          "modes.landed_collective_ratio",
-         "must be between 0 and 1 (a fraction of the hover collective; got %g)",
-         (double)c->modes.landed_collective_ratio);
+         "must be between 0 and 1 (a fraction of the hover collective; got %s)",
+         num(c->modes.landed_collective_ratio, false, b, sizeof b));
     return true;
 }
 

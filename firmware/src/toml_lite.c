@@ -305,28 +305,35 @@ bool toml_parse(const char *text, size_t len, toml_fn fn, void *ctx, char *why, 
     }
 }
 
+void toml_float_repr(double f, char *out, size_t cap)
+{
+    if (isnan(f)) {
+        snprintf(out, cap, "nan");
+        return;
+    }
+    if (isinf(f)) {
+        snprintf(out, cap, f > 0 ? "inf" : "-inf");
+        return;
+    }
+    if (f == floor(f) && fabs(f) < 1e16) { /* Python writes integral floats in full, with ".0" */
+        snprintf(out, cap, "%.1f", f);
+        return;
+    }
+    for (int prec = 1; prec <= 17; prec++) { /* the shortest that reads back, as Python */
+        snprintf(out, cap, "%.*g", prec, f);
+        if (strtod(out, NULL) == f)
+            break;
+    }
+    /* %g writes exponents as Python does (1e-05, 1.5e+16) */
+}
+
 static void repr_scalar(const toml_scalar_t *v, char *out, size_t cap)
 {
     switch (v->type) {
     case TV_STRING: snprintf(out, cap, "'%s'", v->s); break;
     case TV_INT: snprintf(out, cap, "%lld", (long long)v->i); break;
     case TV_BOOL: snprintf(out, cap, "%s", v->b ? "True" : "False"); break;
-    case TV_FLOAT: {
-        if (isnan(v->f))
-            snprintf(out, cap, "nan");
-        else if (isinf(v->f))
-            snprintf(out, cap, v->f > 0 ? "inf" : "-inf");
-        else {
-            for (int prec = 15; prec <= 17; prec++) { /* the shortest that reads back, as Python */
-                snprintf(out, cap, "%.*g", prec, v->f);
-                if (strtod(out, NULL) == v->f)
-                    break;
-            }
-            if (!strpbrk(out, ".en"))
-                strncat(out, ".0", cap - strlen(out) - 1);
-        }
-        break;
-    }
+    case TV_FLOAT: toml_float_repr(v->f, out, cap); break;
     default: snprintf(out, cap, "?"); break;
     }
 }

@@ -42,6 +42,9 @@ typedef bool (*toml_fn)(void *ctx, const char *key, const toml_value_t *value);
 /* Parse; false on a syntax error, with "line N: reason" in why (or the callback's stop). */
 bool toml_parse(const char *text, size_t len, toml_fn fn, void *ctx, char *why, size_t why_len);
 
+/* A float the way Python's repr shows it (0.0, -1.5, 1e-06, inf). */
+void toml_float_repr(double f, char *out, size_t cap);
+
 /* A value the way Python's repr shows it ('text', 30, 30.0, True, [1, 2]), for messages. */
 void toml_repr(const toml_value_t *v, char *out, size_t cap);
 

@@ -121,7 +121,7 @@ bool baro_ref_add(baro_reference_t *r, float p_Pa, int64_t t_ns)
         r->started = true;
         r->t_first_ns = t_ns;
     }
-    r->sum += p_Pa;
+    r->sum += (double)p_Pa;
     r->n++;
     if (t_ns - r->t_first_ns >= r->average_ns) {
         r->p_ref_Pa = (float)(r->sum / r->n);

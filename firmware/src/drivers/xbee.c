@@ -217,8 +217,10 @@ int xbee_link_send(xbee_link_t *l, const uint8_t *payload, size_t len)
     if (l->request_status)
         l->frame_id = (uint8_t)(l->frame_id % 255 + 1);
     n = xbee_tx16(l->frame_id, l->dest16, payload, len, 0, data, sizeof data);
+    if (!n)
+        return 0;
     w = xbee_api_frame(data, n, l->escaped, wire, sizeof wire);
-    if (!n || !w)
+    if (!w)
         return 0;
     written = hal_uart_write(HAL_UART_TELEMETRY, wire, w);
     if (written < 0)

@@ -97,7 +97,7 @@ static size_t parse(xbus_parser_t *p, xbus_msg_fn fn, void *ctx)
         if (at < 0) {
             /* keep a trailing 0xFA: it may be the first half of the next preamble */
             size_t keep = (p->n && p->buf[p->n - 1] == XBUS_PREAMBLE) ? 1u : 0u;
-            p->counters.garbage_bytes += p->n - keep;
+            p->counters.garbage_bytes += (uint32_t)(p->n - keep);
             drop(p, p->n - keep);
             break;
         }

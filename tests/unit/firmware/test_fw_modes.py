@@ -52,9 +52,9 @@ def c_params(p: ModesParams, takeoff_alt_m: float) -> ModesParamsT:
 # float32-exact values, so a comparison at a threshold goes the same way in both codes
 stick = st.sampled_from([1000.0, 1040.0, 1050.0, 1100.0, 1500.0, 1900.0, 1950.0, 2000.0])
 height = st.sampled_from([-0.5, 0.0, 0.25, 0.5, 0.75, 1.0, 2.0, 5.0])
-speed = st.sampled_from([-1.0, -0.25, 0.0, 0.125, 0.5])
+speed = st.sampled_from([-1.0, -0.3, -0.25, 0.0, 0.125, 0.3, 0.5])  # 0.3: landed_vz_mps
 share = st.sampled_from([0.0, 0.25, 0.5, 0.625, 0.75])
-accel = st.sampled_from([-3.0, -0.5, 0.0, 0.5, 2.0])
+accel = st.sampled_from([-3.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0])  # 1.0: landed_accel_mps2
 
 
 class BothMachines(RuleBasedStateMachine):
@@ -80,6 +80,18 @@ class BothMachines(RuleBasedStateMachine):
             inp = ModesInputT(baro, rc, thr, yaw, z_ref, z, vz, collective, 0.75, a_up)
             self.fw.dll.modes_update(C.byref(self.c), self.t, C.byref(inp))
             self.check_transitions()
+
+    @rule()
+    def arm_and_take_off(self) -> None:
+        """The arm gesture held, then a take-off setpoint: the paths a random walk rarely finds."""
+        self.samples(440, True, True, 1000.0, 2000.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        self.samples(1, True, True, 1500.0, 1500.0, 2.0, 2.0, 0.0, 0.75, 0.0)
+
+    @rule(ticks=st.integers(1, 600), z=height, vz=speed, collective=share, a_up=accel)
+    def touch_down(self, ticks: int, z: float, vz: float, collective: float, a_up: float) -> None:
+        """A landing being flown (setpoint at the ground) with the touchdown test's inputs at
+        and around its thresholds."""
+        self.samples(ticks, True, True, 1500.0, 1500.0, 0.0, z, vz, collective, a_up)
 
     @rule()
     def imu_lost(self) -> None:
@@ -136,3 +148,19 @@ def test_a_flight_through_every_mode(fw: Codecs) -> None:
     assert run(1.1, rc=True, z_ref=-0.5, z=0.1, collective=0.3) == Mode.DISARMED  # landed
     assert fw.dll.modes_imu_lost(C.byref(m)) == Mode.FAILSAFE_IMU
     assert run(0.01) == Mode.DISARMED  # a sample again: imu_back
+
+
+@pytest.mark.parametrize("z", [0.75, 1.0])
+@pytest.mark.parametrize("vz", [0.25, 0.3, -0.3])
+@pytest.mark.parametrize("a_up", [0.5, 1.0, -1.0])
+def test_touchdown_thresholds_decide_as_python(fw: Codecs, z: float, vz: float, a_up: float) -> None:
+    """A landing flown with the touchdown test's inputs exactly at its thresholds (height 1 m,
+    speed 0.3 m/s, acceleration 1 m/s^2, all exact in float32): the same verdict, at the same
+    sample, as the Python machine."""
+    Codecs.shared = fw  # type: ignore[attr-defined]
+    both = BothMachines()
+    both.start()
+    both.arm_and_take_off()
+    assert both.c.mode == Mode.FLYING
+    both.touch_down(500, z, vz, 0.25, a_up)
+    both.same_state()
