@@ -181,8 +181,9 @@ class Core:
                 s.cycles = until
                 continue
             s.deadline = until
-            self._slice_event = nxt if until == nxt else None
             self._slice(stop_pc)
+            # a slice that ended on a peripheral event: an interrupt it raises was requested then
+            self._slice_event = int(s.deadline) if s.stop_reason == Stop.DEADLINE and s.deadline < target else None
 
     def _slice(self, stop_pc: int) -> None:
         s = self.counter.state

@@ -8,7 +8,8 @@ access phases: 2 x VPBDIV - 1 extra CCLK cycles); the VIC, on the AHB, none.
 
 A callback never stops the emulation itself (Unicorn would re-run the access's instruction);
 it asks the cycle counter to stop at the next block boundary, when an access raised an error,
-put the core to sleep or asserted an interrupt line.
+put the core to sleep or asserted an interrupt line. A write may schedule a peripheral event
+(a timer started, a byte to send): the slice's deadline moves to it.
 """
 
 from __future__ import annotations
@@ -123,6 +124,11 @@ class MmioBridge:
                     self.apb_accesses += 1
                     if address >> SLOT_SHIFT == SCB_BASE >> SLOT_SHIFT:
                         self.memory_timing_changed()
+                # a write may schedule an event before the slice's deadline (a timer started,
+                # a byte to send): the slice ends at the first block boundary after it
+                nxt = self.bus.next_event_cycle()
+                if nxt is not None and nxt < state.deadline:
+                    state.deadline = nxt
                 self._after_access()
             except BaseException as e:  # noqa: BLE001
                 self._failed(e)

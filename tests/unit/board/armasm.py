@@ -41,10 +41,11 @@ def assemble(source: str, base: int = SRAM_BASE) -> Program:
     if not elf.exists():
         src, obj = _CACHE / f"{key}.s", _CACHE / f"{key}.o"
         src.write_text(text)
-        subprocess.run([AS, "-o", str(obj), str(src)], check=True, capture_output=True, text=True)
         tmp = _CACHE / f"{key}.{id(text)}.tmp"
-        subprocess.run([LD, "-Ttext", f"{base:#x}", "-e", "_start", "-o", str(tmp), str(obj)], check=True,
-                       capture_output=True, text=True)
+        for cmd in ([AS, "-o", str(obj), str(src)], [LD, "-Ttext", f"{base:#x}", "-e", "_start", "-o", str(tmp), str(obj)]):
+            done = subprocess.run(cmd, capture_output=True, text=True)
+            if done.returncode:
+                raise AssertionError(f"{cmd[0]} failed on {src}:\n{done.stderr}")
         tmp.replace(elf)
     return Program(elf, load_elf(elf).symbols)
 
