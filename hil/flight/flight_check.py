@@ -13,7 +13,11 @@ program's config is its own business, and its boot says what it thinks of it.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
+import selectors
+import signal
 import subprocess
 import tempfile
 from collections.abc import Mapping
@@ -21,6 +25,7 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
+from hil import clock
 from hil.config import ConfigError
 from hil.config.rig import Rig
 from hil.config.scenario import Scenario
@@ -67,20 +72,48 @@ def check_flight_config(rig: Rig, scenario: Scenario, source: Path | None = None
     with tempfile.TemporaryDirectory(prefix="hilcheck-") as tmp:
         ports = {name: SimpleNamespace(client_path=f"{tmp}/{name}") for name in _PORTS}
         config = write_flight_config(rig, scenario, ports, Path(tmp))  # type: ignore[arg-type]
-        argv = expand_command(template, config=config)
-        try:
-            done = subprocess.run(argv, stdin=subprocess.DEVNULL, capture_output=True, text=True,
-                                  timeout=CHECK_TIMEOUT_S, check=False)
-        except (OSError, subprocess.TimeoutExpired):
-            return  # the run's own start says what is wrong with the command
-    for line in reversed(done.stdout.splitlines()):
-        try:
-            verdict = json.loads(line)
-        except ValueError:
-            continue
-        if isinstance(verdict, dict) and "flightcode_check" in verdict:
-            if not verdict.get("ok"):
-                key = str(verdict.get("key", ""))
-                raise ConfigError(f"{_where(rig, scenario, source, key)}: {verdict.get('reason', 'invalid')} "
-                                  "(the flight code's own check, python -m flightcode --check-config)")
-            return
+        verdict = _ask(expand_command(template, config=config))
+    if verdict is not None and not verdict.get("ok"):
+        key = str(verdict.get("key", ""))
+        raise ConfigError(f"{_where(rig, scenario, source, key)}: {verdict.get('reason', 'invalid')} "
+                          "(the flight code's own check, python -m flightcode --check-config)")
+
+
+def _ask(argv: list[str]) -> dict[str, Any] | None:
+    """Run the check; its verdict, or None if it gave none. A launcher in the command (``sh
+    -c``, ``make``) may go on after the flight code answered, or never end: its process group
+    is killed as soon as the verdict is read, or at ``CHECK_TIMEOUT_S``."""
+    try:
+        proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                start_new_session=True)
+    except OSError:
+        return None  # the run's own start says what is wrong with the command
+    assert proc.stdout is not None
+    verdict = None
+    try:
+        with selectors.DefaultSelector() as sel:
+            sel.register(proc.stdout, selectors.EVENT_READ)
+            give_up = clock.monotonic_ns() + int(CHECK_TIMEOUT_S * 1e9)
+            pending = b""
+            while verdict is None and clock.monotonic_ns() < give_up:
+                if not sel.select((give_up - clock.monotonic_ns()) / 1e9):
+                    continue
+                chunk = os.read(proc.stdout.fileno(), 65536)
+                if not chunk:
+                    break
+                *lines, pending = (pending + chunk).split(b"\n")
+                verdict = next((v for v in map(_verdict, lines) if v is not None), None)
+    finally:
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        proc.stdout.close()
+    return verdict
+
+
+def _verdict(line: bytes) -> dict[str, Any] | None:
+    try:
+        verdict = json.loads(line)
+    except ValueError:
+        return None
+    return verdict if isinstance(verdict, dict) and "flightcode_check" in verdict else None

@@ -135,6 +135,10 @@ class FlightProcess:
         # a restart swaps in a private event before the kill: set whichever is current
         self.exited.set()
 
+    def tree_pids(self) -> list[int]:
+        """Every process of the current start's tree (the command's own first)."""
+        return self.owner.tree.discover({}) if self.owner is not None else []
+
     @property
     def pid(self) -> int | None:
         return self.proc.pid if self.proc else None

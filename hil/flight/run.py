@@ -247,7 +247,7 @@ async def _fly_and_finish(run: RunState, rt: Any, wake: Any, hog: CpuHog, *, kee
     message = ""
     steal = StealMeter()  # the hypervisor's pauses over the tick loop (hil/host/steal.py)
     # the other processes' CPU over the tick loop, beside the bench's own (hil/host/cpuuse.py)
-    fc_cpu = ChildCpu(lambda: flight.pid)
+    fc_cpu = ChildCpu(lambda: flight.pid, others=flight.tree_pids)  # a launcher's flight code too
     rec_cpu = ChildCpu(lambda: recorder.pid if recorder is not None else None)
     frozen = False
     try:

@@ -14,7 +14,7 @@ Read from ``/proc/<pid>/stat`` (user + system time, in clock ticks of 10 ms): go
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from hil.host.procstat import STIME, UTIME, stat_fields
@@ -36,17 +36,33 @@ def process_cpu_ns(pid: int | None, proc: Path = Path("/proc")) -> int | None:
 
 class ChildCpu:
     """The CPU a child process used between ``start()`` and ``stop()``; None if it was not
-    running at both ends, or was replaced in between (a restarted flight code)."""
+    running at both ends, or was replaced in between (a restarted flight code).
 
-    def __init__(self, pid: Callable[[], int | None], proc: Path = Path("/proc")) -> None:
+    ``others``: the pids of processes it started (a launcher's flight code): their CPU
+    between the two ends is added (all of it for one started in between; one that exited
+    in between is not counted)."""
+
+    def __init__(self, pid: Callable[[], int | None], proc: Path = Path("/proc"),
+                 others: Callable[[], Iterable[int]] | None = None) -> None:
         self._pid = pid
         self._proc = proc
+        self._others = others
         self._start: tuple[int, int] | None = None
+        self._others_start: dict[int, int] = {}
+
+    def _other_cpu(self, pid: int) -> dict[int, int]:
+        out: dict[int, int] = {}
+        for other in self._others() if self._others is not None else ():
+            cpu = process_cpu_ns(other, self._proc)
+            if other != pid and cpu is not None:
+                out[other] = cpu
+        return out
 
     def start(self) -> None:
         pid = self._pid()
         cpu = process_cpu_ns(pid, self._proc)
         self._start = None if pid is None or cpu is None else (pid, cpu)
+        self._others_start = self._other_cpu(pid) if pid is not None else {}
 
     def stop(self) -> int | None:
         """ns of CPU since ``start()``."""
@@ -56,4 +72,7 @@ class ChildCpu:
         if self._pid() != pid:
             return None
         cpu = process_cpu_ns(pid, self._proc)
-        return None if cpu is None else max(cpu - cpu0, 0)
+        if cpu is None:
+            return None
+        others = sum(max(c - self._others_start.get(p, 0), 0) for p, c in self._other_cpu(pid).items())
+        return max(cpu - cpu0, 0) + others

@@ -23,6 +23,7 @@ from hil.vtime.preload import Fallback, check_program, shim_library
 from hil.vtime.port_io import ScheduledPort
 from hil.vtime.scheduler import VirtualClock
 from hil.vtime.stall import Stall
+from hil.vtime.tree import what_it_waits_in
 
 if TYPE_CHECKING:
     from hil.flight.process import FlightProcess
@@ -115,16 +116,22 @@ class VirtualTime:
         self.ctl.close()
 
 
+#: what a blocked thread waits in, by its slot's wait kind (``abi.Wait``)
+_WAIT_WHAT = {abi.Wait.FUTEX: " on another thread", abi.Wait.CHILD: " for a child process",
+              abi.Wait.READ: " reading a descriptor"}
+
+
 def describe_stall(stall: Stall) -> str:
-    """One line a user can act on: which thread the bench waits for, doing what."""
+    """One line a user can act on: which threads the bench waits for, doing what."""
     parts = []
     for t in stall.threads:
         if t.blocked:
-            what = "blocked" + (f" until {t.deadline_ns / 1e9:.6f} s" if t.deadline_ns is not None else "")
+            what = "blocked" + _WAIT_WHAT.get(abi.Wait(t.wait_kind), "") \
+                + (f" until {t.deadline_ns / 1e9:.6f} s" if t.deadline_ns is not None else "")
         else:
-            what = f"running (or in a call the shim does not see: /proc/{t.pid}/task/{t.tid}/syscall)"
-        parts.append(f"thread {t.tid} {what}")
+            what = f"running (or in a call the shim does not see: {what_it_waits_in(t.pid, t.tid)})"
+        parts.append(f"process {t.pid} thread {t.tid} {what}")
     return (f"the bench has waited {stall.waited_s:g} s (wall) for the flight code to go idle: "
-            + "; ".join(parts or ["no thread attached"]) + ". A debugger stop or SIGSTOP is fine; "
-            "a thread blocked in a call the clock shim does not interpose (a plain blocking read) stalls "
-            "the run: see docs/time.md.")
+            + "; ".join(parts + list(stall.unseen) or ["no thread attached"]) + ". A debugger stop or SIGSTOP "
+            "is fine; a process blocked in a call the clock shim does not interpose ends the run once confirmed: "
+            "see docs/time.md.")

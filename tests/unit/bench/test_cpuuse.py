@@ -82,3 +82,20 @@ def test_none_when_the_process_is_gone_at_the_end(tmp_path: Path) -> None:
     meter.start()
     (proc / "10" / "stat").unlink()
     assert meter.stop() is None
+
+
+def test_a_launchers_children_are_counted_with_it(tmp_path: Path) -> None:
+    """``sh -c`` waits while its child flies: the child's CPU between the ends is the flight
+    code's (one that started in between counts whole, one gone at the end does not)."""
+    proc = _fake_proc(tmp_path, 10, "sh", 1, 1)
+    _fake_proc(proc, 11, "python3", 100, 10)
+    _fake_proc(proc, 12, "helper", 4, 0)
+    others = [11, 12]
+    meter = ChildCpu(lambda: 10, proc, others=lambda: others)
+    meter.start()
+    _fake_proc(proc, 10, "sh", 1, 2)  # +1
+    _fake_proc(proc, 11, "python3", 150, 20)  # +60
+    (proc / "12" / "stat").unlink()  # exited: not counted
+    _fake_proc(proc, 13, "late", 3, 0)  # started in between: +3
+    others[:] = [10, 11, 13]  # the root among the others is not counted twice
+    assert meter.stop() == 64 * TICK_NS
