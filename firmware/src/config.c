@@ -245,7 +245,9 @@ static const cfg_key_t *find_key(const char *key)
 /* Walk key's components: the first that is neither a table nor a key is unknown. */
 static bool check_path(apply_t *a, const char *key, bool header, const toml_value_t *v)
 {
-    char path[2 * TOML_KEY_MAX] = "", known[400], got[300];
+    /* static: the config is read once, at boot, by one thread; the ARM7's stack stays small */
+    static char known[400], got[300];
+    char path[2 * TOML_KEY_MAX] = "";
     const char *p = key;
     for (;;) {
         const char *dot = strchr(p, '.');
@@ -329,7 +331,7 @@ static bool on_value(void *ctx, const char *key, const toml_value_t *v)
     apply_t *a = ctx;
     const cfg_key_t *k;
     char *base = (char *)a->cfg;
-    char got[300];
+    static char got[300]; /* boot only, one thread: off the ARM7's stack */
     if (!check_path(a, key, v->type == TV_TABLE, v))
         return false;
     if (!strncmp(key, "ports", 5) && (key[5] == '.' || key[5] == '\0')) {
@@ -397,10 +399,15 @@ static bool on_value(void *ctx, const char *key, const toml_value_t *v)
         if (v->n != 3)
             return error(a->err, key, "must have exactly 3 elements (got %lu)", (unsigned long)v->n);
         for (int i = 0; i < 3; i++) {
+            const toml_item_t *it = &v->items[i];
             toml_value_t one;
             memset(&one, 0, sizeof one);
-            one.type = v->items[i].type;
-            one.v = v->items[i];
+            one.type = it->type;
+            one.v.type = it->type;
+            memcpy(one.v.s, it->s, TOML_ITEM_STR_MAX);
+            one.v.i = it->i;
+            one.v.f = it->f;
+            one.v.b = it->b;
             toml_repr(&one, got, sizeof got);
             snprintf(item_key, sizeof item_key, "%s[%d]", key, i);
             if (k->kind == CK_INT3) {

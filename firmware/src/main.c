@@ -48,7 +48,7 @@ static void fill_hal_config(const fc_config_t *c, hal_config_t *h)
 
 static void config_invalid(const cfg_error_t *err)
 {
-    char text[700];
+    static char text[700];
     if (log_begin(LOG_ERROR, "config.invalid")) {
         log_str("file", err->file);
         log_str("key", err->key);
@@ -74,8 +74,8 @@ static int fly(const fc_config_t *cfg)
 {
     hal_config_t hc;
     hal_dev_t failed = HAL_DEV_IMU;
-    cfg_error_t err;
-    char why[300];
+    static cfg_error_t err;
+    static char why[300];
     memset(&err, 0, sizeof err);
     log_set_level((log_level_t)cfg->log.level);
     if (cfg->rc.frontend == CFG_RC_SBUS && cfg->ports.rc.baud != 100000 && log_begin(LOG_WARNING, "config.sbus_baud")) {

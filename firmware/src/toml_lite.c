@@ -201,8 +201,17 @@ static bool parse_value(cursor_t *c, toml_value_t *v)
                 return fail(c, "nested arrays are not supported here");
             if (!parse_scalar(c, &item))
                 return false;
-            if (v->n < TOML_ARRAY_MAX)
-                v->items[v->n] = item;
+            if (item.type == TV_STRING && strlen(item.s) >= TOML_ITEM_STR_MAX)
+                return fail(c, "strings in arrays longer than 15 characters are not supported here");
+            if (v->n < TOML_ARRAY_MAX) {
+                toml_item_t *it = &v->items[v->n];
+                it->type = item.type;
+                memcpy(it->s, item.s, TOML_ITEM_STR_MAX);
+                it->s[TOML_ITEM_STR_MAX - 1] = '\0';
+                it->i = item.i;
+                it->f = item.f;
+                it->b = item.b;
+            }
             v->n++;
             skip_ws_nl(c);
             if (c->p < c->end && *c->p == ',') {
@@ -352,8 +361,15 @@ void toml_repr(const toml_value_t *v, char *out, size_t cap)
         size_t k = 0;
         k += (size_t)snprintf(out + k, cap - k, "[");
         for (size_t i = 0; i < v->n && i < TOML_ARRAY_MAX && k < cap; i++) {
-            char item[TOML_STR_MAX + 4];
-            repr_scalar(&v->items[i], item, sizeof item);
+            char item[48];
+            toml_scalar_t one;
+            const toml_item_t *it = &v->items[i];
+            one.type = it->type;
+            memcpy(one.s, it->s, TOML_ITEM_STR_MAX);
+            one.i = it->i;
+            one.f = it->f;
+            one.b = it->b;
+            repr_scalar(&one, item, sizeof item);
             k += (size_t)snprintf(out + k, cap - k, "%s%s", i ? ", " : "", item);
         }
         if (k < cap)

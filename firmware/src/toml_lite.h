@@ -28,11 +28,22 @@ typedef struct toml_scalar {
     bool b;
 } toml_scalar_t;
 
+/* An array element: short strings only (the config's arrays hold numbers and axis names),
+ * which keeps a value small on the ARM7's stack. */
+#define TOML_ITEM_STR_MAX 16
+typedef struct {
+    toml_type_t type;
+    char s[TOML_ITEM_STR_MAX];
+    int64_t i;
+    double f;
+    bool b;
+} toml_item_t;
+
 typedef struct {
     toml_type_t type; /* TV_TABLE: a [header] (no value) */
     toml_scalar_t v;  /* scalars */
     size_t n;         /* TV_ARRAY: elements (at most TOML_ARRAY_MAX kept, n counts all) */
-    toml_scalar_t items[TOML_ARRAY_MAX];
+    toml_item_t items[TOML_ARRAY_MAX];
 } toml_value_t;
 
 /* Called per key = value (and per [table] header, with TV_TABLE); return false to stop
