@@ -127,3 +127,34 @@ def test_plant_is_pure_numerics(path: Path) -> None:
     forbidden = {"asyncio", "os", "time", "random", "socket", "serial", "emulators", "flightcode", "threading"}
     bad = [(line, mod) for line, mod in _imports(path) if mod in forbidden]
     assert not bad, f"{path}: the plant is pure numerics: {bad}"
+
+
+def _c_includes(path: Path) -> list[tuple[int, str]]:
+    import re
+
+    pattern = re.compile(r'^\s*#\s*include\s*[<"]([^>"]+)[>"]')
+    return [(n, m.group(1)) for n, line in enumerate(path.read_text().splitlines(), 1) if (m := pattern.match(line))]
+
+
+_FIRMWARE_C = sorted(p for p in (ROOT / "firmware").rglob("*.[chS]") if "build" not in p.relative_to(ROOT).parts)
+
+
+@pytest.mark.parametrize("path", _FIRMWARE_C, ids=lambda p: str(p.relative_to(ROOT)))
+def test_firmware_includes_nothing_of_the_bench(path: Path) -> None:
+    """The firmware knows nothing of the bench: no header of hil/ (the clock shim's ABI
+    included) and no path into the repository outside firmware/."""
+    bad = [(n, inc) for n, inc in _c_includes(path) if "hvt" in inc or inc.startswith(("hil", "../")) or "/hil/" in inc]
+    assert not bad, f"{path}: the firmware must not include the bench's headers: {bad}"
+
+
+#: what only a hardware layer may include: the host's system interfaces
+_POSIX_ONLY = ("unistd.h", "termios.h", "poll.h", "fcntl.h", "signal.h", "pthread.h", "time.h", "sys/", "asm/")
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "firmware" / "src").rglob("*.[ch]")),
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_firmware_above_the_hal_is_portable(path: Path) -> None:
+    """Drivers, estimation, control, modes, loop and main run on the LPC2148 too: they reach
+    the hardware through firmware/include/hal.h only, never the host's system headers."""
+    bad = [(n, inc) for n, inc in _c_includes(path) if inc.startswith(_POSIX_ONLY)]
+    assert not bad, f"{path}: only firmware/hal/<board>/ may include system interfaces: {bad}"
