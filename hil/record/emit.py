@@ -121,36 +121,55 @@ class MessageEmitter:
                 self._handle(sub)
             self._flush_wire(self._latest_t_ns)  # one tick done: write out wire bytes older than a batch
             return
+        if kind is Kind.WIRE:
+            self._gather_wire(route, t_ns, t_host_ns, payload)
+        else:
+            self._plain(route, kind, t_ns, t_host_ns, payload)
+
+    def _gather_wire(self, route: Route, t_ns: int, t_host_ns: int, payload: Any) -> None:
+        """One wire chunk (bytes, or a callable giving them) onto its port's next message."""
+        if self._fatal is not None:
+            route.dropped += 1
+            return
+        try:
+            if callable(payload):
+                payload = payload()
+            t_ns = int(t_ns)
+            if t_ns > self._latest_t_ns:
+                self._latest_t_ns = t_ns
+            if route.wire and (t_ns - route.wire[0][0] >= WIRE_BATCH_NS
+                               or route.wire_bytes + len(payload) > WIRE_BATCH_BYTES):
+                self._emit_wire(route)
+            route.wire.append((t_ns, int(t_host_ns), payload))
+            route.wire_bytes += len(payload)
+            route.chunks += 1
+            if t_ns - self._swept_t_ns >= WIRE_BATCH_NS:  # wire logged outside tick batches too
+                self._swept_t_ns = t_ns
+                self._flush_wire(t_ns)
+        except OSError as e:  # the file is broken: count everything from here on
+            self._fatal = e
+            route.dropped += 1
+        except Exception as e:  # never let one message kill the writer thread (e.g. bad t_ns type)
+            self._unencodable(route, e)
+
+    def _plain(self, route: Route, kind: Kind, t_ns: int, t_host_ns: int, payload: Any) -> None:
+        """One message (``Kind.PLAIN``, or ``Kind.TRUTH`` with its derived ``/tf`` and ``/sim/pose``)."""
         if self._fatal is not None:
             route.dropped += 1
             return
         try:
             if callable(payload):  # a deferred payload: built here, off the tick path
                 payload = payload()
-            if kind is Kind.WIRE:
-                t_ns = int(t_ns)
-                if t_ns > self._latest_t_ns:
-                    self._latest_t_ns = t_ns
-                if route.wire and (t_ns - route.wire[0][0] >= WIRE_BATCH_NS
-                                   or route.wire_bytes + len(payload) > WIRE_BATCH_BYTES):
-                    self._emit_wire(route)
-                route.wire.append((t_ns, int(t_host_ns), payload))
-                route.wire_bytes += len(payload)
-                route.chunks += 1
-                if t_ns - self._swept_t_ns >= WIRE_BATCH_NS:  # wire logged outside tick batches too
-                    self._swept_t_ns = t_ns
-                    self._flush_wire(t_ns)
-            else:
-                self._emit(route, t_ns, t_host_ns, payload, complete=True)
-                if kind is Kind.TRUTH:
-                    for topic, derive in (("/tf", frames.truth_to_tf), ("/sim/pose", frames.truth_to_pose)):
-                        derived = self._routes[topic]
-                        try:
-                            msg = derive(payload)
-                        except (KeyError, TypeError, ValueError, IndexError) as e:  # truth without p_N_m/q_NB
-                            self._unencodable(derived, e)
-                            continue
-                        self._emit(derived, t_ns, t_host_ns, msg, complete=True)
+            self._emit(route, t_ns, t_host_ns, payload, complete=True)
+            if kind is Kind.TRUTH:
+                for topic, derive in (("/tf", frames.truth_to_tf), ("/sim/pose", frames.truth_to_pose)):
+                    derived = self._routes[topic]
+                    try:
+                        msg = derive(payload)
+                    except (KeyError, TypeError, ValueError, IndexError) as e:  # truth without p_N_m/q_NB
+                        self._unencodable(derived, e)
+                        continue
+                    self._emit(derived, t_ns, t_host_ns, msg, complete=True)
         except OSError as e:  # the file is broken: count everything from here on
             self._fatal = e
             route.dropped += 1

@@ -1,10 +1,11 @@
 """One message appended to an ``mcap.writer.Writer``'s open chunk with one ``struct`` pack.
 
 Why: ``Writer.add_message`` builds a ``Message`` record object and writes it field by field
-(five packs, a seek back for the length): about 10 us a message in the recorder child, which
-writes five a tick (docs/performance.md, Recording). ``MessageAppender.add`` does the same
+(five packs, a seek back for the length), and the chunk's message index is written later
+with two packs a message: together about 10 us a message in the recorder child, which writes
+five a tick (docs/performance.md, Recording). ``MessageAppender.add`` does the same
 bookkeeping (the file's statistics, the chunk's time range and message index) and writes the
-same bytes, the record in one pack. It reaches into the Writer's private state, so it checks
+same bytes, the record in one pack, the index in one pack a channel. It reaches into the Writer's private state, so it checks
 that state's shape once and otherwise calls ``Writer.add_message`` itself;
 tests/unit/record/test_mcap_append.py keeps the two writing identical files.
 """
@@ -24,6 +25,20 @@ from mcap.writer import Writer
 _HEAD = struct.Struct("<BQHIQQ")
 _BODY_FIXED = 2 + 4 + 8 + 8
 _OPCODE = int(Opcode.MESSAGE)
+#: opcode, record length, channel id, records length (the MCAP Message Index record's head)
+_INDEX_HEAD = struct.Struct("<BQHI")
+_INDEX_OPCODE = int(Opcode.MESSAGE_INDEX)
+
+
+class _MessageIndex(MessageIndex):
+    """A chunk's message index, written with one pack of its (log time, offset) pairs instead
+    of two packs a message (same bytes: the library wrote a sixth of the child's time here)."""
+
+    def write(self, stream: Any) -> None:
+        records = self.records
+        n = 2 * len(records)
+        stream.write(_INDEX_HEAD.pack(_INDEX_OPCODE, 6 + 8 * n, self.channel_id, 8 * n))
+        stream.write(struct.pack(f"<{n}Q", *[v for record in records for v in record]))
 
 
 def _internals(writer: Writer) -> tuple[Any, Any, int, Callable[[], None]] | None:
@@ -72,14 +87,16 @@ class MessageAppender:
         if log_time > cb.message_end_time:
             cb.message_end_time = log_time
         buf = cb.record_writer._buffer  # the chunk builder's buffer is replaced when a chunk ends
+        offset = buf.tell()
         index = cb.message_indices.get(channel_id)
         if not index:
-            index = cb.message_indices[channel_id] = MessageIndex(channel_id=channel_id, records=[])
-        index.records.append((log_time, buf.tell()))
+            index = cb.message_indices[channel_id] = _MessageIndex(channel_id=channel_id, records=[])
+        index.records.append((log_time, offset))
         cb.num_messages += 1
-        buf.write(_HEAD.pack(_OPCODE, _BODY_FIXED + len(data), channel_id, sequence, log_time, publish_time))
+        n = len(data)
+        buf.write(_HEAD.pack(_OPCODE, _BODY_FIXED + n, channel_id, sequence, log_time, publish_time))
         buf.write(data)
-        if buf.tell() > self._chunk_size:
+        if offset + _HEAD.size + n > self._chunk_size:
             self._finish()
 
 

@@ -280,7 +280,7 @@ class Recorder(MessageEmitter):
                 else:
                     self.log(topic, t_ns, payload, t_host_ns)
             return
-        routes, wires, handle = self._routes, self._wire_routes, self._handle
+        routes, wires, gather, plain, kind = self._routes, self._wire_routes, self._gather_wire, self._plain, Kind.PLAIN
         for topic, t_ns, t_host_ns, payload in items:
             if topic is None:
                 port, direction, data = payload
@@ -290,12 +290,12 @@ class Recorder(MessageEmitter):
                     if route is None:
                         wire_topic(port, direction)  # raises UnknownTopicError
                     wires[(port, direction)] = route  # type: ignore[assignment]
-                handle((route, Kind.WIRE, t_ns, t_host_ns, bytes(data)))  # type: ignore[arg-type]
+                gather(route, t_ns, t_host_ns, bytes(data))  # type: ignore[arg-type]
             else:
                 route = routes.get(topic)
                 if route is None:
                     topic_spec(topic)  # raises UnknownTopicError with the message
-                handle((route, Kind.PLAIN, t_ns, t_host_ns, payload))  # type: ignore[arg-type]
+                plain(route, kind, t_ns, t_host_ns, payload)  # type: ignore[arg-type]
 
     def batch(self) -> RecordBatch:
         """A :class:`RecordBatch` feeding this recorder (one queue put per ``flush()``)."""
