@@ -7,6 +7,7 @@ bool landing_descent_init(landing_descent_t *d, float rate_mps)
 {
     d->rate_mps = rate_mps;
     d->z_m = 0.0f;
+    d->z_lost_m = 0.0f;
     d->active = false;
     return isfinite(rate_mps) && rate_mps > 0.0f;
 }
@@ -14,6 +15,7 @@ bool landing_descent_init(landing_descent_t *d, float rate_mps)
 void landing_descent_start(landing_descent_t *d, float z_m)
 {
     d->z_m = z_m;
+    d->z_lost_m = 0.0f;
     d->active = true;
 }
 
@@ -24,8 +26,11 @@ void landing_descent_stop(landing_descent_t *d)
 
 float landing_descent_step(landing_descent_t *d, float dt_s)
 {
-    d->z_m -= d->rate_mps * dt_s;
-    return d->z_m;
+    float step = -d->rate_mps * dt_s - d->z_lost_m;
+    float z = d->z_m + step;
+    d->z_lost_m = (z - d->z_m) - step;
+    d->z_m = z;
+    return z;
 }
 
 bool hover_throttle_init(hover_throttle_t *h, float initial, float tau_s, float lo, float hi)

@@ -24,6 +24,8 @@ extern "C" {
 typedef struct {
     float rate_mps; /* failsafe.descend_mps, > 0 */
     float z_m;      /* setpoint, m (z up; goes below the take-off level until the landing is confirmed) */
+    float z_lost_m; /* what the float32 sum has rounded away so far (compensated summation: the
+                       same 1.25 mm step rounds the same way every sample, 5 mm over 28 m) */
     bool active;    /* between start and stop */
 } landing_descent_t;
 

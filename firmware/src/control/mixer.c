@@ -123,7 +123,14 @@ void mixer_mix(mixer_t *mx, float collective_throttle, const float tau_Nm[3], mi
         yw[i] = mx->m_yaw[i] * tz;
         thrust[i] = (f_c + rp[i]) + yw[i];
     }
-    const float lo_ok = -MIXER_EPS_N, hi_ok = fmax + MIXER_EPS_N;
+    float mag = 0.0f;
+    for (int i = 0; i < 4; i++) {
+        float m = fabsf(rp[i]) + fabsf(yw[i]);
+        mag = m > mag ? m : mag;
+    }
+    float eps = MIXER_EPS_REL * (f_c + mag);
+    eps = eps > MIXER_EPS_MIN_N ? eps : MIXER_EPS_MIN_N;
+    const float lo_ok = -eps, hi_ok = fmax + eps;
     bool saturated = false;
     if (!all_fit(thrust, lo_ok, hi_ok)) {
         saturated = true;

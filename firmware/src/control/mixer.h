@@ -34,9 +34,13 @@ extern "C" {
 typedef enum { MIXER_FRAME_X = 0, MIXER_FRAME_PLUS = 1 } mixer_frame_t;
 typedef enum { MIXER_DIFF_THRUST = 0, MIXER_DIFF_THROTTLE = 1 } mixer_differential_t;
 
-/* A thrust this far outside [0, F_max] still fits, N: a few float32 ulps of a motor's thrust
- * (the Python flight code, in double precision, uses 1e-9 N). */
-#define MIXER_EPS_N 1e-5f
+/* A thrust this far outside [0, F_max] still fits: flightcode's 1e-9 N, or the float32
+ * rounding of the sums that make it (4 ulps of the largest term, 2e-6 N at a motor's full
+ * 5 N), whichever is larger. In double precision flightcode's 1e-9 N is far above its
+ * rounding; in single precision a request exactly at a bound would otherwise be taken for a
+ * saturated one half the time. */
+#define MIXER_EPS_MIN_N 1e-9f
+#define MIXER_EPS_REL (4.0f * 1.1920929e-7f)
 
 typedef struct {
     mixer_frame_t frame;               /* vehicle.frame */
