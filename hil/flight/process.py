@@ -45,6 +45,20 @@ def _die_with_parent() -> None:
         pass
 
 
+class _Protocol(asyncio.subprocess.SubprocessStreamProtocol):
+    """The subprocess's protocol, telling when the command's own process has exited: asyncio's
+    ``Process.wait()`` returns only once its output pipes are closed too, and a launcher's
+    children may hold them after it exited."""
+
+    def __init__(self, exited: asyncio.Event, loop: asyncio.AbstractEventLoop) -> None:
+        super().__init__(limit=2**16, loop=loop)
+        self._exited = exited
+
+    def process_exited(self) -> None:
+        super().process_exited()
+        self._exited.set()
+
+
 def expand_command(template: Sequence[str], *, config: Path) -> list[str]:
     """Substitute ``{python}`` and ``{config}`` in the rig's command template."""
     return [part.replace("{python}", sys.executable).replace("{config}", str(config)) for part in template]
@@ -87,8 +101,11 @@ class FlightProcess:
         token = f"{os.getpid()}-{secrets.token_hex(8)}"
         env[TOKEN_ENV] = token  # finds the tree's orphans that left its session
         TreeOwner.hold()  # this process reaps the tree's orphans from now
+        loop = asyncio.get_running_loop()
+        root_exited = asyncio.Event()
         try:
-            self.proc = await asyncio.create_subprocess_exec(
+            transport, protocol = await loop.subprocess_exec(
+                lambda: _Protocol(root_exited, loop),
                 *self.argv,
                 cwd=self.cwd,
                 stdin=asyncio.subprocess.DEVNULL,
@@ -101,6 +118,7 @@ class FlightProcess:
         except BaseException:
             TreeOwner.release()
             raise
+        self.proc = asyncio.subprocess.Process(transport, protocol, loop)
         self.owner = TreeOwner(self.proc.pid, token)
         self._forget_hard_exit = on_hard_exit(self.owner.kill_now)
         assert self.proc.stdout is not None and self.proc.stderr is not None
@@ -109,7 +127,7 @@ class FlightProcess:
             asyncio.create_task(self._pump(self.proc.stderr, "stderr")),
         ]
         # keep a reference: the loop holds tasks weakly, and this one sets ``exited``
-        self._watcher = asyncio.create_task(self._watch(self.proc, self.owner, list(self._readers)))
+        self._watcher = asyncio.create_task(self._watch(self.proc, root_exited, self.owner, list(self._readers)))
         for hook in self.on_start:
             hook(self.proc.pid)
 
@@ -123,9 +141,9 @@ class FlightProcess:
                 self.last_stderr.append(text)
             self.on_line(name, text)
 
-    async def _watch(self, proc: asyncio.subprocess.Process, owner: TreeOwner,
+    async def _watch(self, proc: asyncio.subprocess.Process, root_exited: asyncio.Event, owner: TreeOwner,
                      readers: list[asyncio.Task[None]]) -> None:
-        await proc.wait()
+        await root_exited.wait()
         for hook in self.on_exit:
             hook(proc.pid)
         # Its output ends when every process holding the pipes has exited. A launcher's

@@ -10,7 +10,9 @@ at the same instant are ended).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import os
+import signal
 import shutil
 import tempfile
 from collections.abc import Callable, Mapping
@@ -21,6 +23,7 @@ from hil.transport.pty import PtyPort
 from hil.vtime.control import ControlBlock
 from hil.vtime.preload import shim_library
 from hil.vtime.scheduler import INLINE_WAIT_S, VirtualClock
+from hil.vtime.stall import Stall
 
 
 @dataclass
@@ -45,12 +48,17 @@ async def run_virtual(
     spin_limit: int = 100_000,
     run_dir: Path | None = None,
     inline_wait_s: float = INLINE_WAIT_S,
+    stall_warn_s: float = 5.0,
+    stalls: list[Stall] | None = None,
 ) -> Outcome:
+    """``stall_warn_s``: the scheduler's stall warning (and the first look for a process the
+    shim cannot see, which raises ``HiddenWait`` once confirmed); each stall is appended to
+    ``stalls``."""
     own = run_dir is None
     run_dir = run_dir or Path(tempfile.mkdtemp(prefix="hil-vt-test-"))
     try:  # the directory goes whatever fails, setup included (a missing shim, a bad argv)
         return await _run_in(argv, run_dir, ports=ports, at=at, limit_ns=limit_ns, spin_limit=spin_limit,
-                             inline_wait_s=inline_wait_s)
+                             inline_wait_s=inline_wait_s, stall_warn_s=stall_warn_s, stalls=stalls)
     finally:
         if own:
             shutil.rmtree(run_dir, ignore_errors=True)
@@ -65,16 +73,21 @@ async def _run_in(
     limit_ns: int,
     spin_limit: int,
     inline_wait_s: float,
+    stall_warn_s: float,
+    stalls: list[Stall] | None,
 ) -> Outcome:
     os.chmod(run_dir, 0o700)
     library = shim_library()
     assert isinstance(library, Path), library
     ctl = ControlBlock(run_dir, spin_limit=spin_limit)
     env = dict(os.environ) | ctl.env(library)
-    vc = VirtualClock(ctl, ports or {}, inline_wait_s=inline_wait_s)
+    vc = VirtualClock(ctl, ports or {}, inline_wait_s=inline_wait_s, stall_warn_s=stall_warn_s,
+                      on_stall=stalls.append if stalls is not None else None)
+    vc.library = str(library)
     vc.start(0)
     proc = await asyncio.create_subprocess_exec(
-        *argv, env=env, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, stdin=asyncio.subprocess.DEVNULL
+        *argv, env=env, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, stdin=asyncio.subprocess.DEVNULL,
+        start_new_session=True,
     )
     vc.attach(proc.pid)
     out_task = asyncio.ensure_future(proc.communicate())
@@ -101,9 +114,11 @@ async def _run_in(
             vc.wake_due()
         stdout, stderr = await asyncio.wait_for(out_task, 30)
     finally:
-        if proc.returncode is None:
-            proc.kill()
-            await proc.wait()
+        # the whole group (its own): a launcher's children hold the output pipes, and asyncio's
+        # wait() returns only once those are closed
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        await proc.wait()
         calls, uncovered = ctl.calls(), ctl.uncovered()
         vc.close()
         ctl.close()
