@@ -9,6 +9,7 @@
     hil campaign FILE            many runs (Dask)
     hil perf                     benchmarks of this machine and the bench
     hil build [--groups G]       compile the device models, the plant and the tick path (optional)
+    hil firmware build [--target host|arm]   build the C flight code (firmware/)
     hil faults                   the fault catalogue with parameters and units
 """
 
@@ -25,6 +26,7 @@ from rich.table import Table
 
 from hil.live.options import DevicesLiveOpt, LiveAddrOpt, LiveOpt, LiveTopicsOpt, live_config
 from hil.fleet.mutation import command as mutation_command
+from hil.flight import firmware_build as firmware_command
 from hil.native.sources import Grouping
 
 app = typer.Typer(
@@ -388,6 +390,7 @@ def fidelity(
 
 app.command(name="mutate")(mutation_command.mutate)  # hil/fleet/mutation/command.py
 
+app.add_typer(firmware_command.firmware_app, name="firmware")  # hil/flight/firmware_build.py
 
 def main() -> None:  # pragma: no cover - console entry
     app()

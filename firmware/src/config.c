@@ -187,12 +187,12 @@ typedef struct {
 
 static const char *const port_names[5] = {"imu", "adc", "rc", "esc", "telemetry"};
 
-/* "known here" for a table prefix ("" = top level): the sorted, distinct next components. */
+/* "known here" for a table prefix ("" = top level): the sorted, distinct next components
+ * (pointers into the key table: nothing copied). */
 static void known_here(const char *prefix, char *out, size_t cap)
 {
-    const char *names[64];
+    struct { const char *p; size_t n; } names[64];
     size_t n = 0, plen = strlen(prefix), k = 0;
-    static char buf[64][40];
     for (size_t i = 0; i < cfg_n_keys && n < 64; i++) {
         const char *key = cfg_keys[i].key, *rest, *dot;
         size_t m;
@@ -202,27 +202,31 @@ static void known_here(const char *prefix, char *out, size_t cap)
         rest = plen ? key + plen + 1 : key;
         dot = strchr(rest, '.');
         m = dot ? (size_t)(dot - rest) : strlen(rest);
-        if (m >= sizeof buf[0])
-            continue;
-        for (size_t j = 0; j < n; j++)
-            if (strlen(names[j]) == m && !strncmp(names[j], rest, m))
-                dup = true;
-        if (dup)
-            continue;
-        memcpy(buf[n], rest, m);
-        buf[n][m] = '\0';
-        names[n] = buf[n];
-        n++;
+        for (size_t j = 0; j < n && !dup; j++)
+            dup = names[j].n == m && !strncmp(names[j].p, rest, m);
+        if (!dup) {
+            names[n].p = rest;
+            names[n].n = m;
+            n++;
+        }
     }
     for (size_t i = 1; i < n; i++) /* insertion sort: a few dozen names */
-        for (size_t j = i; j > 0 && strcmp(names[j - 1], names[j]) > 0; j--) {
-            const char *t = names[j];
-            names[j] = names[j - 1];
-            names[j - 1] = t;
+        for (size_t j = i; j > 0; j--) {
+            size_t m = names[j - 1].n < names[j].n ? names[j - 1].n : names[j].n;
+            int c = strncmp(names[j - 1].p, names[j].p, m);
+            if (c < 0 || (c == 0 && names[j - 1].n <= names[j].n))
+                break;
+            {
+                const char *tp = names[j].p;
+                size_t tn = names[j].n;
+                names[j] = names[j - 1];
+                names[j - 1].p = tp;
+                names[j - 1].n = tn;
+            }
         }
     out[0] = '\0';
     for (size_t i = 0; i < n && k + 2 < cap; i++)
-        k += (size_t)snprintf(out + k, cap - k, "%s%s", i ? ", " : "", names[i]);
+        k += (size_t)snprintf(out + k, cap - k, "%s%.*s", i ? ", " : "", (int)names[i].n, names[i].p);
 }
 
 static bool is_table(const char *path)

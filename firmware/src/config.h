@@ -16,7 +16,11 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#ifdef FW_EMBEDDED_CONFIG
+#define CFG_PATH_MAX 48 /* the board has no file system: paths and file names are short labels */
+#else
 #define CFG_PATH_MAX 256
+#endif
 
 typedef struct {
     bool present;

@@ -48,15 +48,16 @@ static void fill_hal_config(const fc_config_t *c, hal_config_t *h)
 
 static void config_invalid(const cfg_error_t *err)
 {
-    static char text[700];
     if (log_begin(LOG_ERROR, "config.invalid")) {
         log_str("file", err->file);
         log_str("key", err->key);
         log_str("reason", err->reason);
         log_end();
     }
-    cfg_error_format(err, text, sizeof text);
-    fprintf(stderr, "firmware: invalid config: %s\n", text);
+    if (err->key[0])
+        fprintf(stderr, "firmware: invalid config: %s: %s: %s\n", err->file, err->key, err->reason);
+    else
+        fprintf(stderr, "firmware: invalid config: %s: %s\n", err->file, err->reason);
 }
 
 static void device_failed(hal_dev_t dev, const char *reason)

@@ -37,7 +37,7 @@ typedef struct {
 
 typedef struct {
     bool escaped;
-    uint8_t raw[600];
+    uint8_t raw[320]; /* the modem sends short frames (TX status: 7 bytes); longer ones are dropped */
     size_t n;
     xbee_parser_counters_t counters;
 } xbee_parser_t;
