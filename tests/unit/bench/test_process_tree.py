@@ -1,0 +1,125 @@
+"""The bench owns the flight command's whole process tree (hil/flight/process_tree.py): a stop
+ends every process the command started, whatever it did (outlived its launcher, ignored
+SIGTERM, left the session), and nothing is left, as /proc shows."""
+
+from __future__ import annotations
+
+import asyncio
+import ctypes
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+from hil.flight.process import FlightProcess
+from hil.flight.process_tree import TOKEN_ENV
+from hil.vtime.tree import read_stat
+
+PR_GET_CHILD_SUBREAPER = 37
+PY = sys.executable
+SLEEPER = f"{PY} -c 'import time; time.sleep(120)'"
+#: a process that ignores SIGTERM (it must be SIGKILLed after the grace)
+STUBBORN = f"{PY} -c 'import signal, time; signal.signal(signal.SIGTERM, signal.SIG_IGN); time.sleep(120)'"
+
+
+def tree_of(flight: FlightProcess) -> list[int]:
+    """Every live process carrying this start's token (found through /proc, whoever its parent)."""
+    assert flight.owner is not None
+    return tagged(flight.owner.token)
+
+
+def tagged(token: str) -> list[int]:
+    mark = f"{TOKEN_ENV}={token}".encode()
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/environ", "rb") as f:
+                env = f.read().split(b"\0")
+        except OSError:
+            continue
+        st = read_stat(int(entry))
+        if mark in env and st is not None and not st.dead:
+            found.append(int(entry))
+    return found
+
+
+def ignores_sigterm(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            mask = next(int(line.split()[1], 16) for line in f if line.startswith("SigIgn:"))
+    except (OSError, StopIteration):
+        return False
+    return bool(mask & (1 << 14))  # SIGTERM is 15: bit 14
+
+
+def subreaper() -> int:
+    value = ctypes.c_int(-1)
+    ctypes.CDLL(None, use_errno=True).prctl(PR_GET_CHILD_SUBREAPER, ctypes.byref(value), 0, 0, 0)
+    return value.value
+
+
+async def started(script: str, tmp_path: Path, n: int) -> tuple[FlightProcess, str]:
+    """``sh -c script`` started as the flight command, once ``n`` of its processes are up."""
+    lines: list[str] = []
+    flight = FlightProcess(["sh", "-c", script], cwd=tmp_path, on_line=lambda stream, line: lines.append(line))
+    await flight.start()
+    assert flight.owner is not None
+    token = flight.owner.token
+    loop = asyncio.get_running_loop()
+    give_up = loop.time() + 30
+    while len(tagged(token)) < n:
+        assert loop.time() < give_up, f"only {tagged(token)} of {n} processes started"
+        await asyncio.sleep(0.02)
+    return flight, token
+
+
+async def test_stop_ends_every_process_the_command_started(tmp_path: Path) -> None:
+    flight, token = await started(f"{SLEEPER} & {SLEEPER} & {SLEEPER}; echo done", tmp_path, 4)
+    assert subreaper() == 1  # while a flight runs, its orphans come to the bench
+    await asyncio.wait_for(flight.stop(grace_s=5.0), 30)
+    assert tagged(token) == [] and flight.owner is None
+    assert subreaper() == 0  # and not after
+
+
+async def test_a_process_that_ignores_sigterm_is_killed_after_the_grace(tmp_path: Path) -> None:
+    flight, token = await started(f"{STUBBORN} & {SLEEPER}", tmp_path, 3)
+    loop = asyncio.get_running_loop()
+    while not any(ignores_sigterm(pid) for pid in tagged(token)):  # its handler is set
+        await asyncio.sleep(0.02)
+    t0 = loop.time()
+    await asyncio.wait_for(flight.stop(grace_s=0.5), 30)
+    assert tagged(token) == []
+    assert loop.time() - t0 >= 0.5  # it had its grace, then SIGKILL
+
+
+async def test_an_orphan_that_left_the_session_is_found_and_ended(tmp_path: Path) -> None:
+    """A daemon's double fork: the launcher exits at once, its child starts a session of its
+    own; the bench, as subreaper, becomes its parent and still ends it."""
+    flight, token = await started(f"setsid {STUBBORN} & exit 0", tmp_path, 1)
+    await asyncio.wait_for(flight.exited.wait(), 30)  # the launcher is gone, its pipes held by the orphan
+    (orphan,) = tagged(token)
+    st = read_stat(orphan)
+    assert st is not None and st.ppid == os.getpid() and st.session == orphan
+    await asyncio.wait_for(flight.stop(grace_s=0.5), 30)
+    assert tagged(token) == []
+    assert read_stat(orphan) is None  # reaped by the bench, not left a zombie
+
+
+async def test_the_kill_fault_ends_the_whole_tree(tmp_path: Path) -> None:
+    flight, token = await started(f"{SLEEPER}; echo done", tmp_path, 2)
+    flight.kill()
+    await asyncio.wait_for(flight.exited.wait(), 30)
+    assert flight.returncode == -9 and flight.killed_by_bench
+    await asyncio.wait_for(flight.stop(), 30)
+    assert tagged(token) == []
+
+
+async def test_a_start_that_fails_gives_the_subreaper_back(tmp_path: Path) -> None:
+    before = subreaper()
+    flight = FlightProcess([str(tmp_path / "no-such-program")], cwd=tmp_path, on_line=lambda s, l: None)
+    with pytest.raises(FileNotFoundError):
+        await flight.start()
+    assert subreaper() == before == 0
