@@ -132,3 +132,22 @@ def test_the_realtime_table_is_read() -> None:
 def test_the_host_table_is_read() -> None:
     rig = load_rig(None)
     assert (rig.host.cpu_latency, rig.host.cpu_latency_us) == ("auto", 0)
+
+
+@pytest.mark.parametrize(("value", "reason"), [("0", "greater than 0"), ("-1.5", "greater than 0"),
+                                               ("601", "less than or equal to 600"), ('"3 s"', "")])
+def test_a_bad_stop_grace_names_the_file_and_the_key(tmp_path: Path, value: str, reason: str) -> None:
+    text = _rig(tmp_path, "").read_text().replace("barrier_timeout_s = 0.5", f"barrier_timeout_s = 0.5\nstop_grace_s = {value}")
+    path = tmp_path / "rig2.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as err:
+        load_rig(path)
+    assert str(path) in str(err.value) and "[flight] stop_grace_s" in str(err.value) and reason in str(err.value)
+
+
+def test_the_stop_grace_is_read_and_defaults_to_a_few_seconds(tmp_path: Path) -> None:
+    assert load_rig(None).flight.stop_grace_s == 3.0
+    text = _rig(tmp_path, "").read_text().replace("barrier_timeout_s = 0.5", "barrier_timeout_s = 0.5\nstop_grace_s = 0.25")
+    path = tmp_path / "rig2.toml"
+    path.write_text(text)
+    assert load_rig(path).flight.stop_grace_s == 0.25
