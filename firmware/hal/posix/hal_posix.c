@@ -197,17 +197,15 @@ int32_t posix_port_read(hal_dev_t dev, uint8_t *buf, size_t max, uint64_t timeou
         return HAL_ERR_ABSENT;
     if (max == 0)
         return 0;
-    n = read(fd, buf, max);
-    if (n > 0)
-        return (int32_t)n;
-    if (n < 0 && errno != EAGAIN && errno != EINTR)
-        return io_error(dev, "cannot read");
-    if (timeout_ns == 0 || hal_stop_requested())
-        return 0;
-    {
+    if (timeout_ns > 0) {
+        /* a caller that may wait expects nothing yet (the next sample, a reply): wait first,
+         * rather than spend a read on EAGAIN every sample */
         struct pollfd pfd = {fd, POLLIN, 0};
         struct timespec ts = {(time_t)(timeout_ns / 1000000000ull), (long)(timeout_ns % 1000000000ull)};
-        int r = ppoll(&pfd, 1, &ts, NULL);
+        int r;
+        if (hal_stop_requested())
+            return 0;
+        r = ppoll(&pfd, 1, &ts, NULL);
         if (r < 0)
             return errno == EINTR ? 0 : io_error(dev, "cannot wait on");
         if (r == 0)
@@ -222,6 +220,10 @@ int32_t posix_port_read(hal_dev_t dev, uint8_t *buf, size_t max, uint64_t timeou
         return (int32_t)n;
     if (n < 0 && errno != EAGAIN && errno != EINTR)
         return io_error(dev, "cannot read");
+    if (n == 0 && timeout_ns > 0) { /* readable yet no data: the other end hung up */
+        posix_fail("%s reports readiness to read but returned no data (device disconnected?)", hal_dev_name(dev));
+        return HAL_ERR_IO;
+    }
     return 0;
 }
 
