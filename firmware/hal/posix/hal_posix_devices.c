@@ -88,22 +88,13 @@ int32_t hal_rc_edges(hal_edge_t *out, size_t max)
         return HAL_ERR_ABSENT;
     for (;;) {
         uint8_t rx[48];
-        int32_t waiting, n;
+        size_t room = sizeof d.capture.buf - d.capture.n;
+        int32_t n;
         got += capture_parser_pop(&d.capture, out + got, max - got);
-        if (got == max)
+        if (got == max || room == 0)
             break;
-        waiting = posix_port_in_waiting(HAL_DEV_RC);
-        if (waiting < 0)
-            return waiting;
-        if (waiting == 0)
-            break;
-        {
-            size_t room = sizeof d.capture.buf - d.capture.n;
-            size_t want = (size_t)waiting < sizeof rx ? (size_t)waiting : sizeof rx;
-            if (want > room)
-                want = room;
-            n = posix_port_read(HAL_DEV_RC, rx, want, 0);
-        }
+        /* a non-blocking read straight away: one call whether or not records came */
+        n = posix_port_read(HAL_DEV_RC, rx, room < sizeof rx ? room : sizeof rx, 0);
         if (n < 0)
             return n;
         if (n == 0)
