@@ -97,6 +97,8 @@ class MatchCounter:
         interrupt, reset, stop = self.masks()
         effect = interrupt | stop | self.extra
         relevant = effect | reset
+        if probe and not effect:
+            return None
         mr = self.mr
         pr = self.pr
         period = pr + 1

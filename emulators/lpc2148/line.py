@@ -13,6 +13,10 @@ So a baud or format mismatch between the two ends gives what the hardware gives,
 a small rate error still reads every byte, a larger one reads garbage with framing errors.
 Times are floats in the receiver's clock ticks (PCLK for the LPC2148's UARTs).
 
+Speed: a frame sent in the receiver's format at a rate close enough that every sample falls
+in its own bit is taken whole (``LineReceiver(fast_path=False)`` samples every bit: the
+reference it is tested against).
+
 Simplification: the receiver finds an edge at its exact time (a 16550 finds it within 1/16 of
 a bit, at its next 16x sample clock).
 """
@@ -100,7 +104,9 @@ class Received(NamedTuple):
 class LineReceiver:
     """The frames on one line and the receiver sampling them."""
 
-    def __init__(self) -> None:
+    def __init__(self, *, fast_path: bool = True) -> None:
+        #: False: sample every bit of every frame (the reference the fast path is tested against)
+        self.fast_path = fast_path
         self.frames: deque[LineFrame] = deque()
         #: the receiver looks for a falling edge from this time on
         self.idle_from = float("-inf")
@@ -170,7 +176,7 @@ class LineReceiver:
             f = self.frames[i]
             base = k * f.bit_time  # the edge, from the frame's start
             done = f.start + base + (n - 0.5) * bit_time
-            if k == 0 and f.fmt == fmt and _clean(bit_time, f.bit_time, n):
+            if self.fast_path and k == 0 and f.fmt == fmt and _clean(bit_time, f.bit_time, n):
                 return Received(f.value, False, False, False, done), done
             levels = [self._level(i, base + (j + 0.5) * bit_time) for j in range(n)]
             if levels[0]:

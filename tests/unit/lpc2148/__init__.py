@@ -1,0 +1,1 @@
+"""Tests of the LPC2148 peripheral models (emulators/lpc2148)."""
