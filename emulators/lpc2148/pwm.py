@@ -103,7 +103,7 @@ class Pwm(RegisterFile):
     def _on_match(self, mask: int, tick: int) -> None:
         interrupt = self.counter.masks()[0]
         for c in range(N_MATCH):
-            if mask & interrupt >> c & 1:
+            if (mask & interrupt) >> c & 1:
                 self.ir |= _ir_bit(c)
         if mask & 1 and self.ler:
             for c in range(N_MATCH):

@@ -185,4 +185,7 @@ def test_next_event_is_the_first_interrupt_or_stop(pr: int, mr: list[int], mcr: 
         if ref.ir_ticks or (was and not ref.enabled):
             first = k
             break
-    assert predicted == first
+    if predicted is not None and predicted >= 1000:  # after a 32-bit wrap: beyond the reference's horizon
+        assert first is None and predicted >= 1 << 32
+    else:
+        assert predicted == first
