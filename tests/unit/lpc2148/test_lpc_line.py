@@ -52,9 +52,9 @@ def test_double_rate_receiver_reads_garbage_with_framing_errors() -> None:
 
 def test_parity_mismatch_is_flagged() -> None:
     rx = LineReceiver()
-    send(rx, bytes([0x01]), 100.0)  # 8N1: the stop bit lands where 8E1 expects parity
+    send(rx, bytes([0x03]), 100.0)  # 8N1: the stop bit (1) lands where 8E1 expects parity 0
     got = rx.take(1e9, 100.0, FrameFormat(8, Parity.EVEN, 1))
-    assert got[0].value == 0x01 and got[0].parity_error
+    assert got[0].value == 0x03 and got[0].parity_error
 
 
 def test_a_break_is_all_zeros() -> None:
