@@ -177,7 +177,7 @@ class LineReceiver:
             base = k * f.bit_time  # the edge, from the frame's start
             done = f.start + base + (n - 0.5) * bit_time
             if self.fast_path and k == 0 and f.fmt == fmt and len(f.levels) == n and _clean(bit_time, f.bit_time, n):
-                return Received(f.value, False, False, False, done), done
+                return Received(f.value & ((1 << fmt.data_bits) - 1), False, False, False, done), done
             levels = [self._level(i, base + (j + 0.5) * bit_time) for j in range(n)]
             if levels[0]:
                 t = f.start + base + 0.5 * bit_time  # a false start
