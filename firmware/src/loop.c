@@ -303,7 +303,7 @@ static void send_telemetry(flight_loop_t *L, telemetry_record_t *rec)
 {
     uint8_t payload[TELEMETRY_PAYLOAD_LEN];
     L->tel_last_slot = rec->t_ns / L->tel_slot_ns;
-    rec->seq = ++L->tel_seq;
+    rec->seq = L->tel_seq++; /* the first frame is 0, as flightcode's */
     telemetry_encode(rec, payload);
     if (xbee_link_send(&L->telemetry, payload, sizeof payload) < 0)
         loop_port_error(&L->counters.telemetry_port_errors, "telemetry");
