@@ -24,11 +24,12 @@ from unicorn import (UC_ARCH_ARM, UC_HOOK_INTR, UC_HOOK_MEM_INVALID, UC_MODE_ARM
                      UC_PROT_READ, Uc, UcError)
 from unicorn import arm_const as A
 
-from hil.board.blocks import DecodeError, decode_block
+from hil.board.blocks import Block, DecodeError, decode_block
 from hil.board.elf import FirmwareImage
 from hil.board.errors import CoreFault, FirmwareError
 from hil.board.mmio import MmioBridge, PeripheralBus
 from hil.board.native import CycleCounter, uclib
+from hil.board.poll import is_poll_loop
 from hil.board.semihost import ARM_SWI, THUMB_SWI, Semihost
 
 FLASH_BASE, FLASH_SIZE = 0x0000_0000, 512 * 1024
@@ -85,14 +86,17 @@ class Core:
         self._fault: BaseException | None = None
         self._stale: list[tuple[int, int]] = []
         self._by_insn: dict[int, set[tuple[int, int]]] = {}
-        self.blocks: dict[tuple[int, int], object] = {}
+        self.blocks: dict[tuple[int, int], Block] = {}
         self.counter = CycleCounter(uc, self._miss)
         self.mmio = MmioBridge(uc, self.counter, bus)
+        self.mmio.is_poll_loop = self._is_poll_loop
+        self._poll_loops: dict[tuple[int, int], bool] = {}
         self._hooks = [uc.hook_add(UC_HOOK_INTR, self._intr), uc.hook_add(UC_HOOK_MEM_INVALID, self._invalid)]
         self._reg = ctypes.c_uint32(0)
         self._reg_ref = ctypes.byref(self._reg)
-        self.idle_cycles = 0
-        self.spin_cycles = 0
+        self.idle_cycles = 0  #: asleep in PCON idle
+        self.spin_cycles = 0  #: skipped passes of a branch to itself
+        self.poll_cycles = 0  #: skipped passes of a polling loop
         self.slices = 0
         self.retranslations = 0
         self.interrupts = {"irq": 0, "fiq": 0, "swi": 0}
@@ -206,6 +210,8 @@ class Core:
             self._stale.clear()
         elif reason == Stop.SELF_LOOP:
             self._spin()
+        elif reason == Stop.REQUEST and self.mmio.poll_found:
+            self._skip_polls()
         elif reason == Stop.MISS_FAILED:
             raise CoreFault(f"no cycle facts for the block at {s.miss_addr:#010x}", s.miss_addr)
 
@@ -219,6 +225,31 @@ class Core:
         if n > 0:
             s.cycles += n * period
             self.spin_cycles += n * period
+
+    def _skip_polls(self) -> None:
+        """A polling loop: its passes up to the next event give the same results."""
+        s, watch, bus = self.counter.state, self.mmio.poll_watch, self.bus
+        self.mmio.poll_found = False
+        if bus.sleeping or bus.irq_request or bus.fiq_request:
+            watch.reset()
+            return
+        nxt = bus.next_event_cycle()
+        until = s.deadline if nxt is None else min(nxt, s.deadline)
+        period = max(watch.period, 1)
+        n = -(-(until - int(s.cycles)) // period)
+        if n > 0:
+            s.cycles += n * period
+            self.poll_cycles += n * period
+        watch.reset()
+
+    def _is_poll_loop(self, address: int, size: int) -> bool:
+        key = (address, size)
+        found = self._poll_loops.get(key)
+        if found is None:
+            block = self.blocks.get(key)
+            found = block is not None and is_poll_loop(block, self.read_memory(address, size))
+            self._poll_loops[key] = found
+        return found
 
     def _interrupt(self) -> bool:
         """Take an interrupt the VIC asserts and the CPSR allows; else watch for the CPSR

@@ -104,6 +104,7 @@ struct state {
     uint32_t next_nonseq;  /* the next block is entered by a transfer (taken branch, exception) */
     uint32_t last_cost;    /* cycles charged for the last block entered */
     uint32_t miss_addr, miss_size;
+    uint32_t cur_addr, cur_size; /* the block entered last (peripheral accesses are its) */
     block_t *prev;         /* the block that ran last and is not settled yet */
     block_t *last;         /* the block entered last */
     /* the MAM (UM10139 chapter 4): mode 0-2, flash access time in cycles (MAMTIM) */
@@ -317,6 +318,8 @@ EXPORT void cyc_block_hook(void *uc, uint64_t address, uint32_t size, void *user
     }
     s->next_nonseq = 0;
     s->block_start = s->cycles;
+    s->cur_addr = a;
+    s->cur_size = size;
     uint64_t c = (uint64_t)b->cost + mam_cycles(s, b, nonseq);
     s->cycles += c;
     if (b->n_start)

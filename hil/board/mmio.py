@@ -15,17 +15,20 @@ put the core to sleep or asserted an interrupt line. A write may schedule a peri
 from __future__ import annotations
 
 import ctypes
+from collections.abc import Callable
 from typing import Protocol
 
 from unicorn import Uc
 from unicorn.unicorn_py3 import unicorn as _ucmod
 
 from hil.board.native import CycleCounter
+from hil.board.poll import PollWatch
 
 APB_BASE, APB_SIZE = 0xE000_0000, 0x0020_0000
 AHB_BASE, AHB_SIZE = 0xFFFF_F000, 0x0000_1000  # the VIC
 SCB_BASE = 0xE01F_C000
 SLOT_SHIFT = 14  # APB peripherals sit in 16 KB slots
+_UNSCHEDULED_SLOTS = frozenset({0xE002_8000 >> SLOT_SHIFT, 0xE002_C000 >> SLOT_SHIFT})  # GPIO, PINSEL
 
 ReadCb = ctypes.CFUNCTYPE(ctypes.c_uint64, ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint, ctypes.c_void_p)
 WriteCb = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint, ctypes.c_uint64, ctypes.c_void_p)
@@ -77,6 +80,10 @@ class MmioBridge:
         #: the interrupt lines as the run loop last saw them: an access that raises one stops
         #: the slice so that the run loop can take it
         self.irq_seen = self.fiq_seen = False
+        #: polling loops: the run loop's judge of a block (address, size) -> skippable
+        self.poll_watch = PollWatch()
+        self.is_poll_loop: Callable[[int, int], bool] = lambda address, size: False
+        self.poll_found = False
         self._callbacks: list[object] = []
         for base, size in ((APB_BASE, APB_SIZE), (AHB_BASE, AHB_SIZE)):
             read, write = ReadCb(self._reader(base)), WriteCb(self._writer(base))
@@ -104,6 +111,10 @@ class MmioBridge:
                 if apb:
                     state.cycles += self.apb_wait
                     self.apb_accesses += 1
+                if self.poll_watch.read(state.blocks, state.cur_addr, state.block_start, base + offset, value) \
+                        and self.is_poll_loop(state.cur_addr, state.cur_size):
+                    self.poll_found = True
+                    state.stop_request = 1
                 self._after_access()
                 return value
             except BaseException as e:  # noqa: BLE001 - handed to the run loop, never lost in ctypes
@@ -118,17 +129,20 @@ class MmioBridge:
             state = self.state
             address = base + offset
             try:
+                self.poll_watch.reset()
                 self.bus.write(address, value, size, state.block_start)
                 if apb:
                     state.cycles += self.apb_wait
                     self.apb_accesses += 1
                     if address >> SLOT_SHIFT == SCB_BASE >> SLOT_SHIFT:
                         self.memory_timing_changed()
-                # a write may schedule an event before the slice's deadline (a timer started,
-                # a byte to send): the slice ends at the first block boundary after it
-                nxt = self.bus.next_event_cycle()
-                if nxt is not None and nxt < state.deadline:
-                    state.deadline = nxt
+                    # a write may schedule an event before the slice's deadline (a timer started,
+                    # a byte to send): the slice ends at the first block boundary after it. The
+                    # pin connect block and GPIO schedule nothing (nor does the VIC, on the AHB).
+                    if address >> SLOT_SHIFT not in _UNSCHEDULED_SLOTS:
+                        nxt = self.bus.next_event_cycle()
+                        if nxt is not None and nxt < state.deadline:
+                            state.deadline = nxt
                 self._after_access()
             except BaseException as e:  # noqa: BLE001
                 self._failed(e)

@@ -52,6 +52,7 @@ class StateT(ctypes.Structure):
         ("stop_reason", ctypes.c_uint32), ("stop_request", ctypes.c_uint32), ("irq_watch", ctypes.c_uint32),
         ("next_nonseq", ctypes.c_uint32), ("last_cost", ctypes.c_uint32),
         ("miss_addr", ctypes.c_uint32), ("miss_size", ctypes.c_uint32),
+        ("cur_addr", ctypes.c_uint32), ("cur_size", ctypes.c_uint32),
         ("prev", ctypes.c_void_p), ("last", ctypes.c_void_p),
         ("mam_mode", ctypes.c_uint32), ("mam_cycles", ctypes.c_uint32),
         ("cur_line", ctypes.c_uint32), ("btb_line", ctypes.c_uint32), ("data_line", ctypes.c_uint32),

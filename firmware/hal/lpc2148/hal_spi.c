@@ -1,15 +1,15 @@
 /*
  * hal_spi.c - SPI0 as master to the MCP3204 (UM10139 chapter 12), with the chip select on
  * GPIO P0.20: mode 0 (CPOL = 0, CPHA = 0), 8-bit transfers, the clock PCLK / S0SPCCR at or
- * below the configured rate. Each byte is written to S0SPDR and its answer read once SPIF
- * sets (at 1 MHz a byte takes 8 us: an interrupt per byte would cost more than the wait).
+ * below the configured rate. Each byte is written to S0SPDR and its answer read once SPIF (or
+ * an error flag) sets: at 1 MHz a byte takes 8 us, an interrupt per byte would cost more than
+ * the wait.
  */
 #include "hal.h"
 #include "lpc2148.h"
 #include "lpc_internal.h"
 
 #define CS_PIN (1u << 20)
-#define SPIF_POLLS 100000u /* far beyond a byte at the slowest clock (PCLK / 254) */
 
 static uint32_t g_spccr = 0;
 
@@ -43,17 +43,14 @@ void lpc_spi_config(uint32_t speed_hz) { g_speed_hz = speed_hz; }
 
 static int xfer(uint8_t out, uint8_t *in)
 {
+    uint32_t sr;
     S0SPDR = out;
-    for (uint32_t i = 0; i < SPIF_POLLS; i++) {
-        uint32_t sr = S0SPSR;
-        if (sr & SPSR_SPIF) {
-            *in = (uint8_t)S0SPDR;
-            return 0;
-        }
-        if (sr & SPSR_ERRORS)
-            return -1;
+    while (!((sr = S0SPSR) & (SPSR_SPIF | SPSR_ERRORS))) {
     }
-    return -1;
+    if (sr & SPSR_ERRORS)
+        return -1;
+    *in = (uint8_t)S0SPDR;
+    return 0;
 }
 
 int hal_spi_exchange(const uint8_t *mosi, uint8_t *miso, const uint8_t *lengths, size_t n_transfers, uint64_t t_ns)
