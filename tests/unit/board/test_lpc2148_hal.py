@@ -11,6 +11,7 @@ import pytest
 from emulators.lpc2148 import Lpc2148
 from hil.board.core import SRAM_BASE, SRAM_SIZE, Core
 from hil.board.elf import load_elf
+from hil.board.stacks import stack_use
 from tests.unit.board.armfw import build_firmware, build_on_hal
 
 PROBE = Path(__file__).with_name("fw_hal_probe.c")
@@ -86,6 +87,12 @@ def test_the_layer_moves_bytes_spi_words_edges_and_pulses() -> None:
     assert core.semihost.lines[-1] == "done overruns 0"
     assert core.semihost.exit_reason == 0x2_0026
     assert core.idle_cycles > 0.8 * (core.cycles - core.spin_cycles)  # waiting in PCON idle, not spinning
+    use = {u.mode: u for u in stack_use(image, core.read_memory)}
+    assert {m: u.size_B for m, u in use.items()} == {"abt": 64, "und": 64, "fiq": 128, "irq": 1024, "svc": 5632}
+    assert 256 < use["svc"].used_B < 5632 and 16 < use["irq"].used_B < 1024  # main's calls; the handlers
+    assert use["fiq"].used_B == use["abt"].used_B == use["und"].used_B == 0
+    core.uc.mem_write(image.symbol("__irq_stack_top") - 1024, b"\0\0\0\0")  # a write at the IRQ stack's end
+    assert next(u for u in stack_use(image, core.read_memory) if u.mode == "irq").overflowed
 
 
 def test_the_flight_firmware_reaches_main() -> None:
