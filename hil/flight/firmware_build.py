@@ -9,6 +9,7 @@ never preloaded into a build.
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import subprocess
@@ -42,9 +43,13 @@ def build_firmware(target: str, *, timeout_s: float = BUILD_TIMEOUT_S) -> str:
     if target == "arm" and shutil.which("arm-none-eabi-gcc") is None:
         raise FirmwareBuildError("arm-none-eabi-gcc is not installed: run firmware/install-toolchain.sh")
     env = {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
+    lock_path = FIRMWARE_DIR / "build" / ".lock"  # one make at a time in firmware/build (the tests take it too)
+    lock_path.parent.mkdir(parents=True, exist_ok=True)
     try:
-        proc = subprocess.run(["make", "-s", "-C", str(FIRMWARE_DIR), target], capture_output=True, text=True,
-                              timeout=timeout_s, env=env)
+        with open(lock_path, "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            proc = subprocess.run(["make", "-s", "-C", str(FIRMWARE_DIR), target], capture_output=True, text=True,
+                                  timeout=timeout_s, env=env)
     except subprocess.TimeoutExpired:
         raise FirmwareBuildError(f"make -C {FIRMWARE_DIR} {target} took longer than {timeout_s:g} s") from None
     if proc.returncode != 0:

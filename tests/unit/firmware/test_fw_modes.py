@@ -120,7 +120,7 @@ class BothMachines(RuleBasedStateMachine):
 def test_same_modes_as_the_python_machine(fw: Codecs) -> None:
     Codecs.shared = fw  # type: ignore[attr-defined]
     runner = BothMachines.TestCase
-    runner.settings = settings(max_examples=60, stateful_step_count=30, deadline=None)
+    runner.settings = settings(max_examples=40, stateful_step_count=30, deadline=None)
     runner().runTest()
 
 
