@@ -8,11 +8,10 @@ is readable, no deadline has passed), and every byte either side wrote has been 
 Then nothing the flight code does depends on how fast the host is, and the next event is
 either the next tick or the earliest deadline the flight code is waiting for.
 
-The flight code is the whole process tree of the rig's command (a launcher such as ``sh -c``,
-``make`` or ``strace -f`` and what it starts, ``hil/vtime/tree.py``): every process of it must
-have its threads in slots, or be gone. A launcher waiting for its child or reading a pipe is
-blocked in an interposed wait the kernel confirms (``abi.Wait.CHILD``, ``READ``); one that
-waits where the shim cannot see ends the run once confirmed (``hil/vtime/hidden.py``).
+The flight code is the rig's command's whole process tree (``hil/vtime/tree.py``): each process
+has its threads in slots, or is gone; a launcher's wait for its child or on a pipe is kernel-
+confirmed (``abi.Wait.CHILD``, ``READ``); one waiting where the shim cannot see ends the run
+(``hil/vtime/hidden.py``).
 
 Why the check is exact: the bytes are settled by polls that run the ptys' pending delivery
 first (``hil/vtime/port_io.py``); the shim publishes the device numbers it waits on before
@@ -28,7 +27,7 @@ from collections.abc import Callable, Mapping
 
 from hil import clock
 from hil.vtime import hidden
-from hil.vtime.control import ControlBlock, ThreadStates, ThreadView
+from hil.vtime.control import ControlBlock, ThreadStates, ThreadView, pid_alive
 from hil.vtime.port_io import PortBytes, ScheduledPort
 from hil.vtime.stall import HiddenWait, ShimLost, Stall, shim_mapped
 from hil.vtime.tree import ProcessTree, exited
@@ -193,8 +192,7 @@ class VirtualClock:
             self.ctl.wake(t.index)
 
     def cpu_ns(self) -> int:
-        """CPU time the flight code used since the last call (every thread of every process of
-        its tree, as each last published it when it blocked), ns of this host."""
+        """Host CPU ns the flight code's tree used since the last call (as each thread last blocked)."""
         last = self._cpu_last
         now: dict[int, tuple[int, int]] = {}
         delta = 0
@@ -244,7 +242,7 @@ class VirtualClock:
             return False  # not attached yet, or restarting: nothing to schedule
         for t in threads:
             if not t.blocked:
-                if t.pid != root and exited(t.pid):
+                if t.pid != root and not pid_alive(t.pid):  # a zombie: _clear_exited
                     self.ctl.clear_process(t.pid)  # a process of the tree that is gone
                     continue
                 return False
@@ -322,6 +320,7 @@ class VirtualClock:
             ask = True
             self._turn_due = loop.time() + INLINE_BUDGET_S  # the event loop turns below
             self.loop_waits += 1
+            self._clear_exited()
             if watch is None:
                 watch = hidden.StallWatch(loop.time(), self.stall_warn_s)
             waiter = loop.create_future()
@@ -367,6 +366,13 @@ class VirtualClock:
         for fd in writable:
             self._master[fd].drain_queued()
         return True
+
+    def _clear_exited(self) -> None:
+        """Free the slots of the tree's zombies (killed, never freed): a /proc read each, not inline."""
+        for pid in {t.pid for t in self.ctl.threads() if not t.blocked and t.pid != self.pid}:
+            if exited(pid):
+                self.ctl.clear_process(pid)
+                self._events += 1
 
     def _look(self, watch: hidden.StallWatch) -> None:
         """A wait for idle has lasted: the stall warning (once), or raise :class:`HiddenWait`
