@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import IntEnum
 
-import capstone
+import capstone  # type: ignore[import-untyped]
 
 from hil.board import isa
 

@@ -100,7 +100,7 @@ def library() -> ctypes.CDLL:
     return _LIB
 
 
-def _fn_address(fn: object) -> int:
+def _fn_address(fn: "ctypes._FuncPointer") -> int:  # a C function of a loaded library
     return ctypes.cast(fn, ctypes.c_void_p).value or 0
 
 
@@ -141,7 +141,7 @@ class CycleCounter:
         self._probes: dict[int, tuple[ProbeT, object]] = {}
         self._hook(UC_HOOK_BLOCK, self.lib.cyc_block_hook, ctypes.addressof(s), 1, 0)
 
-    def _hook(self, kind: int, fn: object, user: int, begin: int, end: int) -> int:
+    def _hook(self, kind: int, fn: "ctypes._FuncPointer", user: int, begin: int, end: int) -> int:
         handle = _ucmod.uc_hook_h()
         err = uclib.uc_hook_add(self.uc._uch, ctypes.byref(handle), kind, _fn_address(fn), user, begin, end)
         if err:
