@@ -7,6 +7,8 @@ sans-I/O models of :mod:`emulators.lpc2148` (docs/board.md).
 - :mod:`hil.board.isa`, :mod:`hil.board.blocks`: the instruction timings and a basic block's
   cycle facts;
 - :mod:`hil.board.native`, ``cyclehook.c``: the cycle counter in C (Unicorn hooks);
-- :mod:`hil.board.mmio`: peripheral accesses to the bus; :mod:`hil.board.elf`: the firmware
-  image; :mod:`hil.board.semihost`: the firmware's console.
+- :mod:`hil.board.mmio`: peripheral accesses to the bus; :mod:`hil.board.poll`: polling
+  loops skipped to the next event;
+- :mod:`hil.board.elf`: the firmware image; :mod:`hil.board.semihost`: the firmware's
+  console; :mod:`hil.board.stacks`: the stacks' high-water marks.
 """

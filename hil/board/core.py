@@ -164,6 +164,7 @@ class Core:
     def run_to(self, address: int, limit: int) -> int:
         """Run until the core is about to execute ``address`` (ARM or Thumb); returns the cycle
         count then. :class:`CoreFault` if ``limit`` cycles pass first."""
+        self.uc.ctl_flush_tb()  # a block translated before may run through the address
         self._run(limit, address & ~1)
         if self.pc != address & ~1:
             raise CoreFault(f"did not reach {address:#010x} within {limit} cycles", self.pc)

@@ -259,3 +259,22 @@ def test_an_unmodelled_peripheral_register_stops_the_run() -> None:
     core, _ = core_with(prog)
     with pytest.raises(UnmodelledRegister, match="E0034000"):
         core.run_until(10_000)
+
+
+def test_run_to_stops_inside_a_block_that_already_ran() -> None:
+    prog = assemble("""
+_start:
+    mov r0, #0
+loop:
+    add r0, r0, #1
+mid:
+    add r1, r1, #1
+    cmp r0, #100
+    bne loop
+done:
+    b done
+""")
+    core, _ = core_with(prog)
+    core.run_until(50)  # the loop's block, translated through `mid`, has run
+    core.run_to(prog.symbols["mid"], 10_000)
+    assert core.pc == prog.symbols["mid"]
