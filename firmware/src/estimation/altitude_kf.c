@@ -26,6 +26,16 @@ void altitude_kf_init(altitude_kf_t *kf, const altitude_kf_params_t *params)
 {
     memset(kf, 0, sizeof *kf);
     kf->p = *params;
+    for (uint8_t i = 0; i < N; i++) {
+        for (uint8_t k = 0; k < N; k++) {
+            if (params->model->F[i][k] != 0.0f) {
+                kf->f_row[kf->f_nnz] = i;
+                kf->f_col[kf->f_nnz] = k;
+                kf->f_unit[kf->f_nnz] = params->model->F[i][k] == 1.0f;
+                kf->f_nnz++;
+            }
+        }
+    }
     altitude_kf_reset(kf, 0.0f, params->r_baro_m2);
 }
 
@@ -45,50 +55,52 @@ void altitude_kf_reset(altitude_kf_t *kf, float z0_m, float z_var_m2)
 void altitude_kf_predict(altitude_kf_t *kf, float u_throttle_dev)
 {
     const altitude_kf_model_t *m = kf->p.model;
-    float xn[N];
-    float fp[N][N];
+    float xn[N] = {0.0f};
+    float fp[N][N] = {{0.0f}};
     if (!isfinite(u_throttle_dev)) {
         kf->counters.nonfinite_input++;
         u_throttle_dev = 0.0f;
     }
-    for (int i = 0; i < N; i++) {
-        float acc = 0.0f;
-        for (int k = 0; k < N; k++) {
-            acc += m->F[i][k] * kf->x[k];
-        }
-        xn[i] = acc + m->B[i] * u_throttle_dev;
-    }
-    memcpy(kf->x, xn, sizeof xn);
-    /* P = F P F^T + Q */
-    for (int i = 0; i < N; i++) {
-        for (int j = 0; j < N; j++) {
-            float acc = 0.0f;
-            for (int k = 0; k < N; k++) {
-                acc += m->F[i][k] * kf->P[k][j];
+    /* x = F x + B u and FP = F P, over F's non-zero entries (row by row, as a dense product
+     * sums them: the same result) */
+    for (uint8_t e = 0; e < kf->f_nnz; e++) {
+        const uint8_t i = kf->f_row[e], k = kf->f_col[e];
+        const float f = m->F[i][k];
+        if (kf->f_unit[e]) {
+            xn[i] += kf->x[k];
+            for (int j = 0; j < N; j++) {
+                fp[i][j] += kf->P[k][j];
             }
-            fp[i][j] = acc;
-        }
-    }
-    for (int i = 0; i < N; i++) {
-        for (int j = 0; j < N; j++) {
-            float acc = 0.0f;
-            for (int k = 0; k < N; k++) {
-                acc += fp[i][k] * m->F[j][k];
+        } else {
+            xn[i] += f * kf->x[k];
+            for (int j = 0; j < N; j++) {
+                fp[i][j] += f * kf->P[k][j];
             }
-            kf->P[i][j] = acc + m->Q[i][j];
         }
     }
-    /* re-symmetrise: the rank-one updates are symmetric only to rounding */
     for (int i = 0; i < N; i++) {
-        for (int j = i + 1; j < N; j++) {
-            float s = (kf->P[i][j] + kf->P[j][i]) * 0.5f;
-            kf->P[i][j] = s;
-            kf->P[j][i] = s;
+        kf->x[i] = xn[i] + m->B[i] * u_throttle_dev;
+    }
+    /* P = FP F^T + Q, its upper triangle mirrored: P[i][j] = sum_k FP[i][k] F[j][k] */
+    float p[N][N] = {{0.0f}};
+    for (uint8_t e = 0; e < kf->f_nnz; e++) {
+        const uint8_t j = kf->f_row[e], k = kf->f_col[e];
+        const float f = m->F[j][k];
+        for (int i = 0; i <= j; i++) {
+            p[i][j] += kf->f_unit[e] ? fp[i][k] : fp[i][k] * f;
+        }
+    }
+    for (int i = 0; i < N; i++) {
+        for (int j = i; j < N; j++) {
+            float v = p[i][j] + m->Q[i][j];
+            kf->P[i][j] = v;
+            kf->P[j][i] = v;
         }
     }
 }
 
-/* x += K innovation, P -= K (H P) for one scalar measurement: ph = P H^T, hph = H P H^T. */
+/* x += K innovation, P -= K (H P) for one scalar measurement: ph = P H^T, hph = H P H^T. The
+ * upper triangle of P is updated and mirrored (K ph^T is symmetric: ph ph^T / s). */
 static void scalar_update(altitude_kf_t *kf, const float ph[N], float innovation, float hph, float r)
 {
     float inv_s = 1.0f / (hph + r);
@@ -98,8 +110,10 @@ static void scalar_update(altitude_kf_t *kf, const float ph[N], float innovation
         kf->x[i] += k[i] * innovation;
     }
     for (int i = 0; i < N; i++) {
-        for (int j = 0; j < N; j++) {
-            kf->P[i][j] -= k[i] * ph[j];
+        for (int j = i; j < N; j++) {
+            float v = kf->P[i][j] - k[i] * ph[j];
+            kf->P[i][j] = v;
+            kf->P[j][i] = v;
         }
     }
 }

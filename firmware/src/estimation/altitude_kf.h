@@ -17,7 +17,9 @@
  * gated: innovation^2 > baro_gate_chi2 x (P_zz + R) is rejected (an outlier); rejections in a
  * row lasting baro_gate_max_rejects samples re-anchor the height to the reading. R is diagonal,
  * so the two measurements are applied one scalar at a time (exactly the joint update), each a
- * rank-one covariance update without a matrix inverse; P is re-symmetrised every predict.
+ * rank-one covariance update without a matrix inverse. P is kept exactly symmetric: only its
+ * upper triangle is computed and mirrored (flightcode computes all of it and re-symmetrises
+ * every predict), and F P F^T skips F's zero entries.
  *
  * Single precision throughout. The state struct is the caller's; nothing is allocated.
  */
@@ -62,7 +64,14 @@ typedef struct {
 typedef struct {
     altitude_kf_params_t p;
     float x[ALTITUDE_KF_N];                 /* [z m, z' m/s, a m/s^2, d m/s^2, b m/s^2] */
-    float P[ALTITUDE_KF_N][ALTITUDE_KF_N];  /* covariance (after predict: the prior) */
+    float P[ALTITUDE_KF_N][ALTITUDE_KF_N];  /* covariance, symmetric (after predict: the prior) */
+    /* F's non-zero entries, row by row (found at init): the products skip its zeros (14 of
+     * 25 for the altitude model) and multiply by none of its ones (4): on a soft-float ARM7
+     * those multiplications were two thirds of a predict's time */
+    uint8_t f_nnz;
+    uint8_t f_row[ALTITUDE_KF_N * ALTITUDE_KF_N];
+    uint8_t f_col[ALTITUDE_KF_N * ALTITUDE_KF_N];
+    bool f_unit[ALTITUDE_KF_N * ALTITUDE_KF_N];  /* the entry is exactly 1: no multiplication */
     uint32_t baro_reject_run;               /* barometer readings rejected in a row */
     altitude_kf_counters_t counters;
 } altitude_kf_t;

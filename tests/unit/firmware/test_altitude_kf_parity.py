@@ -11,7 +11,8 @@ Tolerances (float32 against float64; measured on these sequences, then about fiv
   relative plus 1e-6 x (1 + the readings' size), and the gate's verdict the same unless the Python test statistic is within 1e-4 of
   the threshold.
 
-The inputs are float32 values, so both filters see the same numbers.
+The inputs are float32 values, so both filters see the same numbers. The firmware keeps P
+exactly symmetric (its upper triangle mirrored) where flightcode re-symmetrises every predict.
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ def assert_close(py: AltitudeKF, c: cfw.CKalman, where: str) -> None:
     scale = np.sqrt(np.outer(np.diag(py.P), np.diag(py.P)))
     rel = np.max(np.abs(P - py.P) / scale)
     assert rel <= P_TOL, f"{where}: covariance differs by {rel} of sqrt(P_ii P_jj)"
+    assert np.array_equal(P, P.T), f"{where}: the covariance is not exactly symmetric"
     assert run == py.baro_reject_run, where
     for name in ("baro_rejected", "baro_reanchored", "nonfinite_input", "nonfinite_baro", "nonfinite_acc"):
         assert counters[name] == py.counters[name], f"{where}: {name}"
