@@ -65,7 +65,7 @@ typedef struct {
     altitude_kf_params_t p;
     float x[ALTITUDE_KF_N];                 /* [z m, z' m/s, a m/s^2, d m/s^2, b m/s^2] */
     float P[ALTITUDE_KF_N][ALTITUDE_KF_N];  /* covariance, symmetric (after predict: the prior) */
-    /* F's non-zero entries, row by row (found at init): the products skip its zeros (14 of
+    /* F's non-zero entries, row by row (found at init): the products skip its zeros (15 of
      * 25 for the altitude model) and multiply by none of its ones (4): on a soft-float ARM7
      * those multiplications were two thirds of a predict's time */
     uint8_t f_nnz;
