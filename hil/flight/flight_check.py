@@ -13,19 +13,17 @@ program's config is its own business, and its boot says what it thinks of it.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import json
 import os
-import selectors
 import signal
-import subprocess
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
-from hil import clock
 from hil.config import ConfigError
 from hil.config.rig import Rig
 from hil.config.scenario import Scenario
@@ -35,6 +33,8 @@ from hil.flight.run_files import write_flight_config
 CHECK_FLAG = "--check-config"
 #: wall seconds the check may take (an interpreter start and the config's imports: about 0.5 s)
 CHECK_TIMEOUT_S = 60.0
+#: wall seconds to wait for the check's process once its group was killed
+REAP_TIMEOUT_S = 5.0
 _PORTS = ("imu", "adc", "rc", "esc", "telemetry")
 
 
@@ -63,52 +63,48 @@ def _where(rig: Rig, scenario: Scenario, source: Path | None, key: str) -> str:
     return f"{rig.flight_config_path}: {key}" if key else str(rig.flight_config_path)
 
 
-def check_flight_config(rig: Rig, scenario: Scenario, source: Path | None = None) -> None:
+async def check_flight_config(rig: Rig, scenario: Scenario, source: Path | None = None) -> None:
     """Raise :class:`ConfigError` naming file, key and reason if the flight code refuses the
-    config this run would give it (module docstring). Nothing else is started."""
+    config this run would give it (module docstring). Nothing else is started. A cancel (Ctrl-C)
+    ends the check at once."""
     template = check_command(rig)
     if template is None:
         return
     with tempfile.TemporaryDirectory(prefix="hilcheck-") as tmp:
         ports = {name: SimpleNamespace(client_path=f"{tmp}/{name}") for name in _PORTS}
         config = write_flight_config(rig, scenario, ports, Path(tmp))  # type: ignore[arg-type]
-        verdict = _ask(expand_command(template, config=config))
+        verdict = await _ask(expand_command(template, config=config))
     if verdict is not None and not verdict.get("ok"):
         key = str(verdict.get("key", ""))
         raise ConfigError(f"{_where(rig, scenario, source, key)}: {verdict.get('reason', 'invalid')} "
                           "(the flight code's own check, python -m flightcode --check-config)")
 
 
-def _ask(argv: list[str]) -> dict[str, Any] | None:
+async def _ask(argv: list[str]) -> dict[str, Any] | None:
     """Run the check; its verdict, or None if it gave none. A launcher in the command (``sh
     -c``, ``make``) may go on after the flight code answered, or never end: its process group
-    is killed as soon as the verdict is read, or at ``CHECK_TIMEOUT_S``."""
+    is killed as soon as the verdict is read, at ``CHECK_TIMEOUT_S``, or on a cancel."""
     try:
-        proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                start_new_session=True)
+        proc = await asyncio.create_subprocess_exec(*argv, stdin=asyncio.subprocess.DEVNULL,
+                                                    stdout=asyncio.subprocess.PIPE,
+                                                    stderr=asyncio.subprocess.DEVNULL, start_new_session=True)
     except OSError:
         return None  # the run's own start says what is wrong with the command
     assert proc.stdout is not None
-    verdict = None
     try:
-        with selectors.DefaultSelector() as sel:
-            sel.register(proc.stdout, selectors.EVENT_READ)
-            give_up = clock.monotonic_ns() + int(CHECK_TIMEOUT_S * 1e9)
-            pending = b""
-            while verdict is None and clock.monotonic_ns() < give_up:
-                if not sel.select((give_up - clock.monotonic_ns()) / 1e9):
-                    continue
-                chunk = os.read(proc.stdout.fileno(), 65536)
-                if not chunk:
-                    break
-                *lines, pending = (pending + chunk).split(b"\n")
-                verdict = next((v for v in map(_verdict, lines) if v is not None), None)
+        async with asyncio.timeout(CHECK_TIMEOUT_S):
+            async for line in proc.stdout:
+                verdict = _verdict(line)
+                if verdict is not None:
+                    return verdict
+    except (TimeoutError, ValueError):  # ValueError: a line longer than the stream's limit
+        pass
     finally:
         with contextlib.suppress(ProcessLookupError, PermissionError):
             os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait()
-        proc.stdout.close()
-    return verdict
+        with contextlib.suppress(TimeoutError):  # bounded: a descendant that left the group holds stdout
+            await asyncio.wait_for(asyncio.shield(proc.wait()), REAP_TIMEOUT_S)
+    return None
 
 
 def _verdict(line: bytes) -> dict[str, Any] | None:

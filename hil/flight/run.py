@@ -137,7 +137,7 @@ async def run_flight_async(
     refuse_lockstep(attachments, mode.value)
     rt = rtsched.for_rig(rig, realtime=mode is Mode.REALTIME)  # "fifo" refused: nothing is created yet
     wake = cpulatency.for_rig(rig)  # "require" refused: likewise
-    check_flight_config(rig, scenario, scenario_source)  # the flight code's own word on [flight] overrides
+    await check_flight_config(rig, scenario, scenario_source)  # the flight code's own word on [flight] overrides
     async with contextlib.AsyncExitStack() as stack:
         await _acquire(stack, run, attachments, keep_run_dir=keep_run_dir, stress_adc_delay_us=stress_adc_delay_us,
                        record=record, out_dir=out_dir, log_path=log_path, keep_trace=keep_trace,
