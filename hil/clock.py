@@ -6,10 +6,13 @@ for host monotonic time. Pacers for realtime mode live here too.
 
 from __future__ import annotations
 
-import asyncio
 import queue
 import threading
 import time
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # asyncio is imported where it is used: `import hil` (and `hil --help`) stays light
+    import asyncio
 
 
 
@@ -82,6 +85,8 @@ class RealtimePacer:
             loop.call_soon_threadsafe(_resolve, fut, deadline_ns)
 
     async def wait(self, deadline_ns: int) -> int:
+        import asyncio
+
         loop = asyncio.get_running_loop()
         fut: asyncio.Future[int] = loop.create_future()
         self._requests.put((deadline_ns, fut, loop))
