@@ -1,7 +1,7 @@
 """The firmware's mixer and landing helpers against flightcode's.
 
 Mixer tolerances (float32 against float64, both frames, both differentials, requests far
-beyond what fits; measured on the 20 000 random requests, then a margin): each motor's thrust
+beyond what fits; measured on 20 000 random requests, then a margin): each motor's thrust
 within 2e-5 N (measured 1.6e-6 N) and its throttle within 1e-5 where the thrust is above 1 %
 of the maximum (5.2e-7; below 1 % sqrt magnifies a thrust's rounding: 1e-7 N is a throttle of
 1.4e-4); the applied torques, the torques in the controllers' units and the collective within
@@ -78,12 +78,12 @@ def test_mix_random_requests_with_saturation(lib: cfw.Lib, frame: str, different
     py, c = mixer_pair(lib, frame, differential)
     rng = np.random.default_rng(9)
     saturated = 0
-    for _ in range(5000):
+    for _ in range(2000):
         collective = f32(rng.uniform(-0.2, 1.2))
         scale = rng.choice([0.05, 0.8])  # flight-sized requests, and ones far beyond what fits
         tau = (f32(rng.normal(0, scale)), f32(rng.normal(0, scale)), f32(rng.normal(0, scale / 5)))
         saturated += assert_mix_close(py, c, collective, tau).saturated
-    assert 500 < saturated < 4500  # both branches exercised
+    assert 200 < saturated < 1800  # both branches exercised
 
 
 @settings(max_examples=300)
