@@ -246,8 +246,6 @@ class VirtualClock:
                     self.ctl.clear_process(t.pid)  # a process of the tree that is gone
                     continue
                 return False
-        if self._tree is not None and not self._tree.all_in_slots(threads):
-            return False  # a process of the tree runs or waits where the shim cannot see
         # the descriptors its waits are on, ours only (the bench does not control when any
         # other becomes ready); judged after the bytes are settled, before the verdict
         readable: list[int] = []
@@ -284,6 +282,8 @@ class VirtualClock:
             return False  # it is waking up (or about to) on bytes already there
         if not all(self.ctl.seq(t.index) == t.seq for t in threads):
             return False
+        if self._tree is not None and not self._tree.all_in_slots(threads):
+            return False  # a process of the tree runs or waits where the shim cannot see (last: /proc reads)
         if not any(t.confirmed and t.deadline_ns is not None for t in threads):
             # a timed futex wait ends on the host clock without telling anyone: never cached
             self._idle_at, self._snapshot = (self._events, self._written.count), threads

@@ -155,21 +155,22 @@ class ProcessTree:
 
     def _children(self, pid: int, tids: Iterable[int]) -> list[int]:
         out: list[int] = []
+        fds = self._children_fds
         for tid in tids:
             key = (pid, tid)
-            fd = self._children_fds.get(key)
+            fd = fds.get(key)
             try:
                 if fd is None:
-                    fd = os.open(f"/proc/{pid}/task/{tid}/children", os.O_RDONLY | os.O_CLOEXEC)
-                    self._children_fds[key] = fd
+                    fd = fds[key] = os.open(f"/proc/{pid}/task/{tid}/children", os.O_RDONLY | os.O_CLOEXEC)
                 raw = os.pread(fd, 4096, 0)
-                if len(raw) == 4096:  # a thread with hundreds of children: read the whole file
+            except OSError:
+                _close(fds.pop(key, None))
+                continue
+            if raw:  # most threads have no children: nothing to parse
+                if len(raw) == 4096:  # hundreds of children: read the whole file
                     with open(f"/proc/{pid}/task/{tid}/children", "rb") as f:
                         raw = f.read()
-            except OSError:
-                _close(self._children_fds.pop(key, None))
-                continue
-            out.extend(int(c) for c in raw.split())
+                out.extend(int(c) for c in raw.split())
         return out
 
     def discover(self, threads: Mapping[int, Iterable[int]]) -> list[int]:
@@ -194,7 +195,7 @@ class ProcessTree:
                 except OSError:
                     continue
             else:
-                tids = {pid, *known}
+                tids = known if pid in known else (pid, *known)
             for child in self._children(pid, tids):
                 if child not in seen:
                     seen.add(child)
@@ -206,11 +207,20 @@ class ProcessTree:
         """Every live member has slots among ``threads``: none runs or waits where the clock
         shim cannot see (a launcher's child between fork and exec, a static program). Zombies
         do not count: they never run again."""
+        root = self.root
         tids: dict[int, list[int]] = {}
         for t in threads:
-            known = tids.setdefault(t.pid, [])
+            known = tids.get(t.pid)
+            if known is None:
+                known = tids[t.pid] = []
             if t.tid > 0:  # -1: reserved by pthread_create, not started yet
                 known.append(t.tid)
+        if len(tids) == 1 and len(self.members) == 1 and root in tids and root in self.members:
+            # the flight code alone (the common case, checked at every idle verdict): one read
+            # per thread, and only children found need the whole walk
+            mine = tids[root]
+            if not self._children(root, mine if root in mine else (root, *mine)):
+                return True
         for pid in self.discover(tids):
             if pid not in tids:
                 st = self.state(pid)
