@@ -98,6 +98,9 @@ class Lpc2148(Lpc2148Bus):
         elif function == "SSEL0":
             self.spi0.set_ssel(level, self.model_tick(self.spi0))
         self._update_lines()
+        for slot in self._slots:
+            slot.stale = True
+        self._due = self._next_due()
 
     def uart_line_in(self, uart: int, data: bytes, cycle: int, baud: float, fmt: FrameFormat = FORMAT_8N1) -> None:
         """A device starts sending ``data`` to UART``uart``'s RXD at ``cycle``, at its own
@@ -111,10 +114,11 @@ class Lpc2148(Lpc2148Bus):
         if not self.scb.powered(self.apb[model.base].pconp):
             self.counters[f"uart{uart}_rx_powered_off"] += len(data)
             return
-        offset = self.apb[model.base].offset
-        tick = self.time.pclk_exact(cycle) - offset
+        slot = self.apb[model.base]
+        tick = self.time.pclk_exact(cycle) - slot.offset
         model.line_in(data, tick, self.time.pclk_hz / baud, fmt)
         self._update_lines()
+        self._rescheduled(slot)
 
     def _uart(self, uart: int) -> Uart:
         return self.uart0 if uart == 0 else self.uart1

@@ -9,8 +9,11 @@ count at MRn, TC goes to 0 instead of MRn+1, giving the match value a full count
 (bit 2: the counters stop with TC at MRn and the counter enable bit is cleared).
 
 Time is stepped from match to match, not tick by tick, so a long idle stretch costs one loop
-iteration per match that matters. :meth:`MatchCounter.ticks_to_effect` looks ahead on a copy
-for the core's skip-to-next-event.
+iteration per match that matters. Up to the next match of a channel with MCR bits or in
+:attr:`MatchCounter.extra` PC and TC are plain arithmetic (a register read costs no
+stepping). :meth:`MatchCounter.ticks_to_effect` and :meth:`MatchCounter.ticks_to_interrupt`
+look ahead on a copy for the core's skip-to-next-event; both are kept until the counter's
+state changes (the owner calls :meth:`MatchCounter.changed` after writing its registers).
 
 Simplification: the manual's timing figures raise the interrupt flag one PCLK after TC reaches
 the match value; the model raises it on the tick TC reaches it.
@@ -19,12 +22,17 @@ the match value; the model raises it on the tick TC reaches it.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Final
 
 from emulators.lpc2148.regs import MASK32
 
-_WRAP = 1 << 32
+_WRAP: Final = 1 << 32
 #: a look-ahead horizon no firmware reaches (ticks)
-_FOREVER = 1 << 80
+_FOREVER: Final = 1 << 80
+#: "no match ahead" for the arithmetic horizon (absolute ticks)
+_NEVER: Final = 1 << 90
+#: a cached look-ahead not computed yet
+_UNKNOWN: Final = -1
 
 #: on_match(channel mask, tick of the match)
 MatchHandler = Callable[[int, int], None]
@@ -35,7 +43,14 @@ def _no_handler(mask: int, tick: int) -> None:
 
 
 class MatchCounter:
-    """PC, TC, PR, MRs and MCR of one timer block; the owner reacts to matches."""
+    """PC, TC, PR, MRs and MCR of one timer block; the owner reacts to matches.
+
+    The owner writes the registers (:attr:`tc`, :attr:`pc`, :attr:`pr`, :attr:`mr`,
+    :attr:`mcr`, :attr:`enabled`, :attr:`held_in_reset`, :attr:`extra`) directly and then calls
+    :meth:`changed`."""
+
+    __slots__ = ("n_match", "tc", "pc", "pr", "mr", "mcr", "enabled", "held_in_reset", "extra", "tick",
+                 "_interrupt", "_reset", "_stop", "_stop_at", "_reset_next", "_effect_at", "_irq_at")
 
     def __init__(self, n_match: int) -> None:
         self.n_match = n_match
@@ -50,6 +65,29 @@ class MatchCounter:
         self.extra = 0
         #: the tick the state above belongs to
         self.tick = 0
+        self._interrupt = self._reset = self._stop = 0
+        #: the absolute tick of the next match of a channel with MCR bits or in extra (_NEVER: none)
+        self._stop_at = _NEVER
+        #: the next count of TC is a reset (TC sits on a reset channel's match value)
+        self._reset_next = False
+        #: ticks_to_effect / ticks_to_interrupt as absolute ticks (None: never; _UNKNOWN: not computed)
+        self._effect_at: int | None = _UNKNOWN
+        self._irq_at: int | None = _UNKNOWN
+
+    def changed(self) -> None:
+        """The registers were written: recompute what depends on them."""
+        interrupt = reset = stop = 0
+        for c in range(self.n_match):
+            bits = (self.mcr >> (3 * c)) & 7
+            if bits & 1:
+                interrupt |= 1 << c
+            if bits & 2:
+                reset |= 1 << c
+            if bits & 4:
+                stop |= 1 << c
+        self._interrupt, self._reset, self._stop = interrupt, reset, stop
+        self._effect_at = self._irq_at = _UNKNOWN
+        self._horizon()
 
     def masks(self) -> tuple[int, int, int]:
         """(interrupt, reset, stop) channel masks from MCR."""
@@ -65,8 +103,37 @@ class MatchCounter:
         return interrupt, reset, stop
 
     @property
+    def interrupt_mask(self) -> int:
+        """The channels with MCR's interrupt bit (as of the last :meth:`changed`)."""
+        return self._interrupt
+
+    @property
     def running(self) -> bool:
         return self.enabled and not self.held_in_reset
+
+    def _horizon(self) -> None:
+        """The next match of a channel that needs stepping (MCR bits or extra), absolute."""
+        self._stop_at = _NEVER
+        self._reset_next = False
+        if not (self.enabled and not self.held_in_reset):
+            return
+        reset = self._reset
+        relevant = self._interrupt | reset | self._stop | self.extra
+        if not relevant:
+            return
+        mr = self.mr
+        tc = self.tc
+        self._reset_next = self._hits(reset, tc) != 0
+        first = ((self.pr - self.pc) & MASK32) + 1  # ticks to TC's next count
+        value = 0 if self._reset_next else (tc + 1) & MASK32  # TC after it
+        period = self.pr + 1
+        best = _NEVER
+        for c in range(self.n_match):
+            if relevant >> c & 1:
+                t = first + ((mr[c] - value) & MASK32) * period
+                if t < best:
+                    best = t
+        self._stop_at = self.tick + best
 
     def advance_to(self, tick: int, on_match: MatchHandler = _no_handler) -> None:
         """Let the counter run to ``tick``, calling ``on_match(mask, tick)`` at each match of
@@ -74,17 +141,50 @@ class MatchCounter:
         n = tick - self.tick
         if n <= 0:
             return
+        if tick < self._stop_at:  # no match to step: PC and TC by arithmetic
+            self.tick = tick
+            if not (self.enabled and not self.held_in_reset):
+                return
+            first = ((self.pr - self.pc) & MASK32) + 1
+            if n < first:
+                self.pc = (self.pc + n) & MASK32
+                return
+            counts, self.pc = divmod(n - first, self.pr + 1)
+            self.tc = ((0 if self._reset_next else self.tc + 1) + counts) & MASK32
+            self._reset_next = False  # a reset value is a match: never reached by arithmetic
+            return
         start = self.tick
         self.tick = tick
         if self.running:
             self._run(n, start, on_match, probe=False)
+            self._effect_at = self._irq_at = _UNKNOWN
+        self._horizon()
 
     def ticks_to_effect(self) -> int | None:
         """Ticks from now to the next match with an effect beyond a reset (interrupt, stop,
         or a channel in :attr:`extra`); None if the counter never gets there."""
-        if not self.running:
-            return None
-        return self.clone()._run(_FOREVER, 0, _no_handler, probe=True)
+        at = self._effect_at
+        if at == _UNKNOWN:
+            at = None
+            if self.running:
+                interrupt, _, stop = self.masks()
+                ahead = self.clone()._run(_FOREVER, 0, _no_handler, probe=True, effect=interrupt | stop | self.extra)
+                at = None if ahead is None else self.tick + ahead
+            self._effect_at = at
+        return None if at is None else at - self.tick
+
+    def ticks_to_interrupt(self) -> int | None:
+        """Ticks from now to the next match that sets an interrupt flag (MCR bit 0); None if
+        the counter never gets there (or stops first)."""
+        at = self._irq_at
+        if at == _UNKNOWN:
+            at = None
+            if self.running:
+                interrupt = self.masks()[0]
+                ahead = self.clone()._run(_FOREVER, 0, _no_handler, probe=True, effect=interrupt)
+                at = None if ahead is None else self.tick + ahead
+            self._irq_at = at
+        return None if at is None else at - self.tick
 
     def clone(self) -> MatchCounter:
         """An independent copy of the counter's state."""
@@ -93,12 +193,16 @@ class MatchCounter:
         sim.enabled, sim.held_in_reset, sim.extra, sim.tick = self.enabled, self.held_in_reset, self.extra, self.tick
         return sim
 
-    def _run(self, n: int, start: int, on_match: MatchHandler, probe: bool) -> int | None:
+    def _run(self, n: int, start: int, on_match: MatchHandler, probe: bool, effect: int = 0) -> int | None:
+        """Step ``n`` ticks from match to match. ``probe``: stop at the first match in
+        ``effect`` and return its tick from now (None: none comes, or a stop comes first)."""
         interrupt, reset, stop = self.masks()
-        effect = interrupt | stop | self.extra
-        relevant = effect | reset
-        if probe and not effect:
-            return None
+        if probe:
+            if not effect:
+                return None
+            relevant = effect | reset | stop
+        else:
+            relevant = interrupt | stop | self.extra | reset
         mr = self.mr
         pr = self.pr
         period = pr + 1
@@ -121,6 +225,8 @@ class MatchCounter:
                 if probe:
                     if hit & effect:
                         return t
+                    if hit & stop:
+                        return None  # the counter stops before any match in effect
                 else:
                     on_match(hit, start + t)
                     if hit & stop:

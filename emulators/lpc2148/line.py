@@ -15,7 +15,8 @@ Times are floats in the receiver's clock ticks (PCLK for the LPC2148's UARTs).
 
 Speed: a frame sent in the receiver's format at a rate close enough that every sample falls
 in its own bit is taken whole (``LineReceiver(fast_path=False)`` samples every bit: the
-reference it is tested against).
+reference it is tested against); :meth:`LineReceiver.clean_dones` lists when the next such
+characters will be complete without taking them (for the UART's interrupt look-ahead).
 
 Simplification: the receiver finds an edge at its exact time (a 16550 finds it within 1/16 of
 a bit, at its next 16x sample clock).
@@ -23,10 +24,11 @@ a bit, at its next 16x sample clock).
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum, unique
-from typing import NamedTuple
+from typing import Final, NamedTuple
 
 
 @unique
@@ -57,10 +59,20 @@ class FrameFormat:
 FORMAT_8N1 = FrameFormat()
 
 
+def _format_of_lcr(lcr: int) -> FrameFormat:
+    parity = Parity((lcr >> 4) & 3) if lcr & 0x08 else Parity.NONE
+    fmt = FrameFormat(5 + (lcr & 3), parity, 2 if lcr & 0x04 else 1)
+    return FORMAT_8N1 if fmt == FORMAT_8N1 else fmt
+
+
+#: LCR bits 5:0 -> its format, one object each (8N1 is FORMAT_8N1 itself: frames sent in it
+#: are recognised by identity)
+_LCR_FORMATS: Final = tuple(_format_of_lcr(lcr) for lcr in range(64))
+
+
 def format_from_lcr(lcr: int) -> FrameFormat:
     """The frame format of a 16550 line control register value."""
-    parity = Parity((lcr >> 4) & 3) if lcr & 0x08 else Parity.NONE
-    return FrameFormat(5 + (lcr & 3), parity, 2 if lcr & 0x04 else 1)
+    return _LCR_FORMATS[lcr & 0x3F]
 
 
 def _parity_bit(value: int, fmt: FrameFormat) -> int:
@@ -75,8 +87,18 @@ def frame_levels(value: int, fmt: FrameFormat) -> tuple[int, ...]:
     return (0, *data, *parity, *([1] * fmt.stop_bits))
 
 
-@dataclass(frozen=True)
-class LineFrame:
+_LEVEL_TABLES: dict[FrameFormat, tuple[tuple[int, ...], ...]] = {}
+
+
+def level_table(fmt: FrameFormat) -> tuple[tuple[int, ...], ...]:
+    """``frame_levels(v, fmt)`` for v in 0-255, computed once per format."""
+    table = _LEVEL_TABLES.get(fmt)
+    if table is None:
+        table = _LEVEL_TABLES[fmt] = tuple(frame_levels(v, fmt) for v in range(256))
+    return table
+
+
+class LineFrame(NamedTuple):
     """One frame on the line: ``start`` time, ``bit_time`` (same unit), its bit ``levels``,
     and the ``value`` and ``fmt`` it was sent with (for the receiver's fast path)."""
 
@@ -107,47 +129,121 @@ class LineReceiver:
     def __init__(self, *, fast_path: bool = True) -> None:
         #: False: sample every bit of every frame (the reference the fast path is tested against)
         self.fast_path = fast_path
+        #: the frames not taken yet (a frame taken whole leaves at once; the others when the
+        #: receiver has looked past their end)
         self.frames: deque[LineFrame] = deque()
         #: the receiver looks for a falling edge from this time on
         self.idle_from = float("-inf")
+        self._last_end = float("-inf")
+        #: the last clean-rate question and its answer: (rx bit, tx bit, bits, clean)
+        self._clean_memo: tuple[float, float, int, bool] = (0.0, 0.0, 0, False)
 
     def push(self, frame: LineFrame) -> None:
         """Put a frame on the line (frames come in time order and do not overlap)."""
         self.frames.append(frame)
+        self._last_end = frame.start + len(frame.levels) * frame.bit_time
 
     @property
     def line_free(self) -> float:
         """When the last frame on the line ends (-inf if none)."""
-        return self.frames[-1].end if self.frames else float("-inf")
+        return self._last_end if self._last_end > self.idle_from else float("-inf")
+
+    def _whole(self, f: LineFrame, bit_time: float, fmt: FrameFormat, n: int) -> bool:
+        """``f``, the first frame on the line, is read whole: its start bit is the next falling
+        edge, it is in the receiver's format and every sample falls in its own bit."""
+        if not self.fast_path or f.start < self.idle_from or f.levels[0] != 0 or len(f.levels) != n:
+            return False
+        if f.fmt is not fmt and f.fmt != fmt:
+            return False
+        return self._is_clean(bit_time, f.bit_time, n)
+
+    def _is_clean(self, rx_bit: float, tx_bit: float, n: int) -> bool:
+        memo = self._clean_memo
+        if memo[0] == rx_bit and memo[1] == tx_bit and memo[2] == n:
+            return memo[3]
+        clean = _clean(rx_bit, tx_bit, n)
+        self._clean_memo = (rx_bit, tx_bit, n, clean)
+        return clean
 
     def take(self, now: float, bit_time: float, fmt: FrameFormat) -> list[Received]:
         """The characters complete by ``now`` for a receiver at ``bit_time`` and ``fmt``."""
-        out: list[Received] = []
-        while True:
+        return [Received(*c) for c in self.take_raw(now, bit_time, fmt)]
+
+    def take_raw(self, now: float, bit_time: float, fmt: FrameFormat) -> list[tuple[int, bool, bool, bool, float]]:
+        """:meth:`take`'s characters as plain tuples (value, framing error, parity error,
+        break, done)."""
+        out: list[tuple[int, bool, bool, bool, float]] = []
+        frames = self.frames
+        n = fmt.n_bits
+        mask = (1 << fmt.data_bits) - 1
+        to_stop = (n - 0.5) * bit_time
+        while frames:
+            f = frames[0]
+            if self._whole(f, bit_time, fmt, n):
+                done = f.start + to_stop
+                if done > now:
+                    break
+                out.append((f.value & mask, False, False, False, done))
+                self.idle_from = done
+                frames.popleft()  # no falling edge after its last sample: nothing more to read in it
+                continue
             char, resume = self._next(bit_time, fmt)
             if char is None or char.done > now:
-                self._drop_before(self.idle_from)
-                return out
-            out.append(char)
+                break
+            out.append((char.value, char.framing_error, char.parity_error, char.break_, char.done))
             self.idle_from = resume
             self._drop_before(resume)
+        self._drop_before(self.idle_from)
+        return out
 
     def peek_done(self, bit_time: float, fmt: FrameFormat) -> float | None:
         """When the next character will be complete, None if the line has none coming."""
+        if self.frames:
+            f = self.frames[0]
+            n = fmt.n_bits
+            if self._whole(f, bit_time, fmt, n):
+                return f.start + (n - 0.5) * bit_time
         char, _ = self._next(bit_time, fmt)
         return None if char is None else char.done
 
+    def clean_dones(self, bit_time: float, fmt: FrameFormat, limit: int) -> tuple[list[float], bool]:
+        """When the next characters will be complete, up to ``limit`` of them, as long as each
+        is a frame read whole (so it carries no error); and whether that covers every
+        character on the line."""
+        out: list[float] = []
+        frames = self.frames
+        if not frames or limit <= 0:
+            return out, not frames
+        n = fmt.n_bits
+        to_stop = (n - 0.5) * bit_time
+        if not self._whole(frames[0], bit_time, fmt, n):
+            return out, False
+        previous = self.idle_from
+        for f in frames:  # each frame starts after the previous one's last sample: each is read whole alike
+            if f.start < previous or f.levels[0] != 0 or len(f.levels) != n or (f.fmt is not fmt and f.fmt != fmt) \
+                    or not self._is_clean(bit_time, f.bit_time, n):
+                return out, False
+            previous = f.start + to_stop
+            out.append(previous)
+            if len(out) >= limit:
+                return out, len(out) == len(frames)
+        return out, True
+
     def _drop_before(self, t: float) -> None:
-        while self.frames and self.frames[0].end <= t:
-            self.frames.popleft()
+        frames = self.frames
+        while frames and frames[0].start + len(frames[0].levels) * frames[0].bit_time <= t:
+            frames.popleft()
 
     def _edge_at_or_after(self, t: float) -> tuple[int, int] | None:
         """(frame index, bit index) of the first falling edge at time >= ``t``."""
         for i, f in enumerate(self.frames):
             if f.end <= t:
                 continue
-            for k, level in enumerate(f.levels):
-                if level == 0 and (k == 0 or f.levels[k - 1] == 1) and f.start + k * f.bit_time >= t:
+            levels = f.levels
+            # the bits starting before t cannot hold the edge: begin at the first one at or after t
+            k0 = 0 if t <= f.start else max(0, math.ceil((t - f.start) / f.bit_time) - 1)
+            for k in range(k0, len(levels)):
+                if levels[k] == 0 and (k == 0 or levels[k - 1] == 1) and f.start + k * f.bit_time >= t:
                     return i, k
         return None
 
@@ -158,7 +254,8 @@ class LineReceiver:
         if k < len(f.levels):
             return f.levels[k]
         t = f.start + pos
-        for g in list(self.frames)[i + 1:]:
+        for j in range(i + 1, len(self.frames)):
+            g = self.frames[j]
             if g.start > t:
                 return 1
             if t < g.end:

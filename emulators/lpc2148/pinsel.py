@@ -55,9 +55,15 @@ PORT0_FUNCTIONS: dict[int, tuple[str, str, str, str]] = {
 }
 
 
+_PINS_WITH: dict[str, tuple[int, ...]] = {}
+
+
 def pins_with(function: str) -> list[int]:
     """The P0 pins that can carry ``function``."""
-    return [pin for pin, fns in PORT0_FUNCTIONS.items() if function in fns]
+    pins = _PINS_WITH.get(function)
+    if pins is None:
+        pins = _PINS_WITH[function] = tuple(pin for pin, fns in PORT0_FUNCTIONS.items() if function in fns)
+    return list(pins)
 
 
 class PinSelect(RegisterFile):
@@ -83,7 +89,10 @@ class PinSelect(RegisterFile):
 
     def selected(self, function: str) -> list[int]:
         """The P0 pins on which ``function`` is selected now."""
-        return [pin for pin in pins_with(function) if self.function(0, pin) == function]
+        pins = _PINS_WITH.get(function)
+        if pins is None:
+            pins = tuple(pins_with(function))
+        return [pin for pin in pins if self.function(0, pin) == function]
 
     def read(self, offset: int, tick: int = 0) -> int:
         if offset in (0x00, 0x04):

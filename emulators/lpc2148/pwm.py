@@ -27,7 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import IntEnum, unique
 
-from emulators.lpc2148.counter import MatchCounter
+from emulators.lpc2148.counter import MatchCounter, MatchHandler
 from emulators.lpc2148.regs import MASK32, RegisterFile
 
 PWM_BASE = 0xE001_4000
@@ -83,13 +83,19 @@ class Pwm(RegisterFile):
         self.shadow = [0] * N_MATCH
         self._last: dict[int, tuple[int, int]] = {c: (0, 0) for c in CHANNELS}
         self._changes: list[PwmOutput] = []
+        self._on_match_cb: MatchHandler = self._on_match
 
     # -- time -----------------------------------------------------------------------------
     def advance_to(self, tick: int) -> None:
-        self.counter.advance_to(tick, self._on_match)
+        self.counter.advance_to(tick, self._on_match_cb)
 
     def next_event(self) -> int | None:
         ahead = self.counter.ticks_to_effect()
+        return None if ahead is None else self.counter.tick + ahead
+
+    def next_irq_event(self) -> int | None:
+        """The tick of the next match that sets an IR bit."""
+        ahead = self.counter.ticks_to_interrupt()
         return None if ahead is None else self.counter.tick + ahead
 
     @property
@@ -101,10 +107,11 @@ class Pwm(RegisterFile):
         return bool(self.tcr & _TCR_PWM)
 
     def _on_match(self, mask: int, tick: int) -> None:
-        interrupt = self.counter.masks()[0]
-        for c in range(N_MATCH):
-            if (mask & interrupt) >> c & 1:
-                self.ir |= _ir_bit(c)
+        interrupt = self.counter.interrupt_mask
+        if mask & interrupt:
+            for c in range(N_MATCH):
+                if (mask & interrupt) >> c & 1:
+                    self.ir |= _ir_bit(c)
         if mask & 1 and self.ler:
             for c in range(N_MATCH):
                 if self.ler >> c & 1:
@@ -149,7 +156,7 @@ class Pwm(RegisterFile):
 
     # -- registers ------------------------------------------------------------------------
     def read(self, offset: int, tick: int) -> int:
-        self.advance_to(tick)
+        self.counter.advance_to(tick, self._on_match_cb)
         k = self.counter
         if offset in _MR_OFFSETS:
             return k.mr[_MR_OFFSETS.index(offset)]
@@ -164,7 +171,7 @@ class Pwm(RegisterFile):
         return (self.tcr & _TCR_PWM) | int(k.enabled) | int(k.held_in_reset) << 1
 
     def write(self, offset: int, value: int, tick: int) -> None:
-        self.advance_to(tick)
+        self.counter.advance_to(tick, self._on_match_cb)
         k = self.counter
         value &= MASK32
         if offset in _MR_OFFSETS:
@@ -195,4 +202,5 @@ class Pwm(RegisterFile):
             k.extra = 1 if self.ler else 0  # the MR0 match must be stepped to latch
         else:
             raise self.unmodelled(offset, "write")
+        k.changed()
         self._emit(tick)

@@ -9,7 +9,12 @@ Every peripheral model (UM10139's register descriptions, cited in each module) h
   The bus handles widths and byte lanes (bus.py); a model sees whole registers;
 * ``advance_to(tick)``: let time pass (time-driven models; the others accept and ignore it);
 * ``next_event() -> int | None``: the tick at which the model next changes an output
-  (interrupt line, pin, byte out) on its own, None if never without new input;
+  (interrupt line, pin, byte out) or a register a read could see on its own, None if never
+  without new input; between its events a model changes nothing but its running counters,
+  so the bus steps only the models with something due;
+* ``next_irq_event() -> int | None``: a tick at or before which ``irq`` may next change on
+  its own (the events that cannot change it left out: a character below the FIFO's trigger
+  level, a timer's match output);
 * ``irq: bool``: the level of its interrupt request line into the VIC.
 
 Ticks: the APB peripherals (timers, PWM, UARTs, SPI) count PCLK ticks since reset; the system
@@ -71,6 +76,11 @@ class RegisterFile:
     def next_event(self) -> int | None:
         """The tick of the next change the model makes on its own; None: none pending."""
         return None
+
+    def next_irq_event(self) -> int | None:
+        """A tick at or before which :attr:`irq` may next change on its own (None: not without
+        an access); a model whose every event may change it keeps this default."""
+        return self.next_event()
 
     @property
     def irq(self) -> bool:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import IntEnum, unique
+from typing import Final
 
 from emulators.lpc2148.errors import NotModelled
 from emulators.lpc2148.pll import Pll
@@ -55,6 +56,28 @@ class ScbReg(IntEnum):
     EXTPOLAR = 0x14C
     RSIR = 0x180
     SCS = 0x1A0
+
+
+_MAMCR: Final = int(ScbReg.MAMCR)
+_MAMTIM: Final = int(ScbReg.MAMTIM)
+_MEMMAP: Final = int(ScbReg.MEMMAP)
+_PLL0CON: Final = int(ScbReg.PLL0CON)
+_PLL0CFG: Final = int(ScbReg.PLL0CFG)
+_PLL0STAT: Final = int(ScbReg.PLL0STAT)
+_PLL0FEED: Final = int(ScbReg.PLL0FEED)
+_PLL1CON: Final = int(ScbReg.PLL1CON)
+_PLL1CFG: Final = int(ScbReg.PLL1CFG)
+_PLL1STAT: Final = int(ScbReg.PLL1STAT)
+_PLL1FEED: Final = int(ScbReg.PLL1FEED)
+_PCON: Final = int(ScbReg.PCON)
+_PCONP: Final = int(ScbReg.PCONP)
+_VPBDIV: Final = int(ScbReg.VPBDIV)
+_EXTINT: Final = int(ScbReg.EXTINT)
+_INTWAKE: Final = int(ScbReg.INTWAKE)
+_EXTMODE: Final = int(ScbReg.EXTMODE)
+_EXTPOLAR: Final = int(ScbReg.EXTPOLAR)
+_RSIR: Final = int(ScbReg.RSIR)
+_SCS: Final = int(ScbReg.SCS)
 
 
 @unique
@@ -144,25 +167,34 @@ class SystemControl:
 
     # -- registers ------------------------------------------------------------------------
     def read(self, offset: int, cycle: int) -> int:
+        if offset == _PCON:
+            return self.pcon
+        if offset == _PLL0STAT:
+            return self.pll0.stat(cycle)
+        if offset == _PLL1STAT:
+            return self.pll1.stat(cycle)
         values: dict[int, int] = {
-            ScbReg.MAMCR: self.mamcr, ScbReg.MAMTIM: self.mamtim, ScbReg.MEMMAP: self.memmap,
-            ScbReg.PLL0CON: self.pll0.con_written, ScbReg.PLL0CFG: self.pll0.cfg_written,
-            ScbReg.PLL0STAT: self.pll0.stat(cycle), ScbReg.PLL1CON: self.pll1.con_written,
-            ScbReg.PLL1CFG: self.pll1.cfg_written, ScbReg.PLL1STAT: self.pll1.stat(cycle), ScbReg.PCON: self.pcon,
-            ScbReg.PCONP: self.pconp, ScbReg.VPBDIV: self.vpbdiv, ScbReg.EXTINT: self.extint,
-            ScbReg.INTWAKE: self.intwake, ScbReg.EXTMODE: self.extmode, ScbReg.EXTPOLAR: self.extpolar,
-            ScbReg.RSIR: self.rsir, ScbReg.SCS: self.scs,
+            _MAMCR: self.mamcr, _MAMTIM: self.mamtim, _MEMMAP: self.memmap,
+            _PLL0CON: self.pll0.con_written, _PLL0CFG: self.pll0.cfg_written,
+            _PLL1CON: self.pll1.con_written, _PLL1CFG: self.pll1.cfg_written,
+            _PCONP: self.pconp, _VPBDIV: self.vpbdiv, _EXTINT: self.extint,
+            _INTWAKE: self.intwake, _EXTMODE: self.extmode, _EXTPOLAR: self.extpolar,
+            _RSIR: self.rsir, _SCS: self.scs,
         }
         if offset in values:
             return values[offset]
-        if offset in (ScbReg.PLL0FEED, ScbReg.PLL1FEED):
+        if offset in (_PLL0FEED, _PLL1FEED):
             raise RegisterFile(self.base).write_only(offset, "PLLFEED")
         raise RegisterFile(self.base).unmodelled(offset, "read")
 
     def write(self, offset: int, value: int, cycle: int, apb_seq: int = 0) -> None:
         value &= 0xFFFF_FFFF
         here = self.base + offset
-        if offset in (ScbReg.PLL0FEED, ScbReg.PLL1FEED):
+        if offset == _PCON:
+            if value & 2:
+                raise NotModelled(here, "power-down mode (PCON.PD)")
+            self.pcon = value & 0x1F
+        elif offset in (ScbReg.PLL0FEED, ScbReg.PLL1FEED):
             pll = self.pll0 if offset == ScbReg.PLL0FEED else self.pll1
             pll.feed(value & 0xFF, apb_seq, cycle, self.cclk_hz(cycle))
         elif offset in (ScbReg.PLL0CON, ScbReg.PLL1CON):
@@ -177,10 +209,6 @@ class SystemControl:
             self.mamtim = value & 7
         elif offset == ScbReg.MEMMAP:
             self.memmap = value & 3
-        elif offset == ScbReg.PCON:
-            if value & 2:
-                raise NotModelled(here, "power-down mode (PCON.PD)")
-            self.pcon = value & 0x1F
         elif offset == ScbReg.PCONP:
             self.pconp = value
         elif offset == ScbReg.VPBDIV:

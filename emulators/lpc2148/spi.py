@@ -122,6 +122,9 @@ class Spi(RegisterFile):
     def next_event(self) -> int | None:
         return self._busy_until
 
+    def next_irq_event(self) -> int | None:
+        return self._busy_until if self.spcr & _SPIE else None
+
     @property
     def irq(self) -> bool:
         return bool(self.spint)

@@ -20,8 +20,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import IntEnum, unique
+from typing import Final
 
-from emulators.lpc2148.counter import MatchCounter
+from emulators.lpc2148.counter import MatchCounter, MatchHandler
 from emulators.lpc2148.errors import NotModelled
 from emulators.lpc2148.regs import MASK32, RegisterFile
 
@@ -65,6 +66,19 @@ class Capture:
     value: int
 
 
+_IR: Final = int(TimerReg.IR)
+_TCR: Final = int(TimerReg.TCR)
+_TC: Final = int(TimerReg.TC)
+_PR: Final = int(TimerReg.PR)
+_PC: Final = int(TimerReg.PC)
+_MCR: Final = int(TimerReg.MCR)
+_MR0: Final = int(TimerReg.MR0)
+_CCR: Final = int(TimerReg.CCR)
+_CR0: Final = int(TimerReg.CR0)
+_EMR: Final = int(TimerReg.EMR)
+_CTCR: Final = int(TimerReg.CTCR)
+
+
 class Timer(RegisterFile):
     """One 32-bit timer with four match and four capture channels; time in PCLK ticks."""
 
@@ -80,13 +94,19 @@ class Timer(RegisterFile):
         self._cap_level = [False] * N_CHANNELS
         self._match_outputs: list[MatchOutput] = []
         self._captures: list[Capture] = []
+        self._on_match_cb: MatchHandler = self._on_match
 
     # -- time -----------------------------------------------------------------------------
     def advance_to(self, tick: int) -> None:
-        self.counter.advance_to(tick, self._on_match)
+        self.counter.advance_to(tick, self._on_match_cb)
 
     def next_event(self) -> int | None:
         ahead = self.counter.ticks_to_effect()
+        return None if ahead is None else self.counter.tick + ahead
+
+    def next_irq_event(self) -> int | None:
+        """The tick of the next match that sets an IR bit (the line can rise only then)."""
+        ahead = self.counter.ticks_to_interrupt()
         return None if ahead is None else self.counter.tick + ahead
 
     @property
@@ -94,19 +114,23 @@ class Timer(RegisterFile):
         return self.ir != 0
 
     def _on_match(self, mask: int, tick: int) -> None:
-        interrupt = self.counter.masks()[0]
+        interrupt = self.counter.interrupt_mask
         self.ir |= mask & interrupt
+        emr = self.emr
+        if not emr >> 4:
+            return  # no external match action
         for c in range(N_CHANNELS):
             if not mask >> c & 1:
                 continue
-            action = (self.emr >> (4 + 2 * c)) & 3
+            action = (emr >> (4 + 2 * c)) & 3
             if action == 0:
                 continue
-            old = bool(self.emr >> c & 1)
-            new = {1: False, 2: True, 3: not old}[action]
-            self.emr = (self.emr & ~(1 << c)) | (int(new) << c)
+            old = bool(emr >> c & 1)
+            new = False if action == 1 else True if action == 2 else not old
+            emr = (emr & ~(1 << c)) | (int(new) << c)
             if new != old:
                 self._match_outputs.append(MatchOutput(tick, c, new))
+        self.emr = emr
 
     def _update_extra(self) -> None:
         extra = 0
@@ -142,52 +166,67 @@ class Timer(RegisterFile):
 
     # -- registers ------------------------------------------------------------------------
     def read(self, offset: int, tick: int) -> int:
-        self.advance_to(tick)
         k = self.counter
-        if TimerReg.MR0 <= offset < TimerReg.MR0 + 4 * N_CHANNELS:
-            return k.mr[(offset - TimerReg.MR0) >> 2]
-        if TimerReg.CR0 <= offset < TimerReg.CR0 + 4 * N_CHANNELS:
-            return self.cr[(offset - TimerReg.CR0) >> 2]
-        values: dict[int, int] = {
-            TimerReg.IR: self.ir, TimerReg.TCR: int(k.enabled) | int(k.held_in_reset) << 1, TimerReg.TC: k.tc,
-            TimerReg.PR: k.pr, TimerReg.PC: k.pc, TimerReg.MCR: k.mcr, TimerReg.CCR: self.ccr, TimerReg.EMR: self.emr,
-            TimerReg.CTCR: self.ctcr,
-        }
-        if offset in values:
-            return values[offset]
+        k.advance_to(tick, self._on_match_cb)
+        if offset == _TC:
+            return k.tc
+        if offset == _IR:
+            return self.ir
+        if _MR0 <= offset < _MR0 + 4 * N_CHANNELS:
+            return k.mr[(offset - _MR0) >> 2]
+        if _CR0 <= offset < _CR0 + 4 * N_CHANNELS:
+            return self.cr[(offset - _CR0) >> 2]
+        if offset == _TCR:
+            return int(k.enabled) | int(k.held_in_reset) << 1
+        if offset == _PR:
+            return k.pr
+        if offset == _PC:
+            return k.pc
+        if offset == _MCR:
+            return k.mcr
+        if offset == _CCR:
+            return self.ccr
+        if offset == _EMR:
+            return self.emr
+        if offset == _CTCR:
+            return self.ctcr
         raise self.unmodelled(offset, "read")
 
     def write(self, offset: int, value: int, tick: int) -> None:
-        self.advance_to(tick)
         k = self.counter
+        k.advance_to(tick, self._on_match_cb)
         value &= MASK32
-        if TimerReg.MR0 <= offset < TimerReg.MR0 + 4 * N_CHANNELS:
-            k.mr[(offset - TimerReg.MR0) >> 2] = value
-        elif TimerReg.CR0 <= offset < TimerReg.CR0 + 4 * N_CHANNELS:
-            raise self.read_only(offset, f"CR{(offset - TimerReg.CR0) >> 2}")
-        elif offset == TimerReg.IR:
+        if offset == _IR:
             self.ir &= ~value  # write 1 to clear
-        elif offset == TimerReg.TCR:
+            return
+        if _MR0 <= offset < _MR0 + 4 * N_CHANNELS:
+            k.mr[(offset - _MR0) >> 2] = value
+        elif _CR0 <= offset < _CR0 + 4 * N_CHANNELS:
+            raise self.read_only(offset, f"CR{(offset - _CR0) >> 2}")
+        elif offset == _TCR:
             k.enabled = bool(value & 1)
             k.held_in_reset = bool(value & 2)
             if k.held_in_reset:
                 k.tc = k.pc = 0
-        elif offset == TimerReg.TC:
+        elif offset == _TC:
             k.tc = value
-        elif offset == TimerReg.PR:
+        elif offset == _PR:
             k.pr = value
-        elif offset == TimerReg.PC:
+        elif offset == _PC:
             k.pc = value
-        elif offset == TimerReg.MCR:
+        elif offset == _MCR:
             k.mcr = value & 0xFFF
-        elif offset == TimerReg.CCR:
+        elif offset == _CCR:
             self.ccr = value & 0xFFF
-        elif offset == TimerReg.EMR:
+            return
+        elif offset == _EMR:
             self.emr = value & 0xFFF
             self._update_extra()
-        elif offset == TimerReg.CTCR:
+        elif offset == _CTCR:
             if value & 3:
                 raise NotModelled(self.base + offset, f"{self.name} counter mode (CTCR = 0x{value:X})")
             self.ctcr = value & 0xF
+            return
         else:
             raise self.unmodelled(offset, "write")
+        k.changed()

@@ -39,9 +39,10 @@ import math
 from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum, unique
+from typing import Final
 
 from emulators.lpc2148.errors import NotModelled
-from emulators.lpc2148.line import FORMAT_8N1, FrameFormat, LineFrame, LineReceiver, format_from_lcr, frame_levels
+from emulators.lpc2148.line import FORMAT_8N1, FrameFormat, LineFrame, LineReceiver, format_from_lcr, level_table
 from emulators.lpc2148.regs import RegisterFile
 
 UART0_BASE = 0xE000_C000
@@ -105,6 +106,34 @@ class TxByte:
     fmt: FrameFormat
 
 
+_RBR: Final = int(UartReg.RBR_THR_DLL)
+_IER: Final = int(UartReg.IER_DLM)
+_IIR: Final = int(UartReg.IIR_FCR)
+_LCR: Final = int(UartReg.LCR)
+_MCR: Final = int(UartReg.MCR)
+_LSR: Final = int(UartReg.LSR)
+_MSR: Final = int(UartReg.MSR)
+_SCR: Final = int(UartReg.SCR)
+_ACR: Final = int(UartReg.ACR)
+_FDR: Final = int(UartReg.FDR)
+_TER: Final = int(UartReg.TER)
+_IIR_RLS: Final = int(Iir.RLS)
+_IIR_RDA: Final = int(Iir.RDA)
+_IIR_CTI: Final = int(Iir.CTI)
+_IIR_THRE: Final = int(Iir.THRE)
+_IIR_NONE: Final = int(Iir.NONE)
+_DR: Final = int(Lsr.DR)
+_OE: Final = int(Lsr.OE)
+_PE: Final = int(Lsr.PE)
+_FE: Final = int(Lsr.FE)
+_BI: Final = int(Lsr.BI)
+_THRE: Final = int(Lsr.THRE)
+_TEMT: Final = int(Lsr.TEMT)
+_RXFE: Final = int(Lsr.RXFE)
+_ERROR_BITS: Final = int(_ERRORS)
+_INF: Final = float("inf")
+
+
 class Uart(RegisterFile):
     """One UART; time in PCLK ticks. ``modem``: UART1's MCR and MSR exist."""
 
@@ -129,29 +158,60 @@ class Uart(RegisterFile):
         self._sent: list[TxByte] = []
         self.counters: dict[str, int] = {"rx_chars": 0, "rx_overruns": 0, "rx_errors": 0, "tx_bytes": 0,
                                          "tx_fifo_overflows": 0}
+        #: characters in the RX FIFO with an error (LSR.RXFE)
+        self._rx_errs = 0
+        # the divisor's, LCR's and FCR's consequences, recomputed when they are written
+        self._bit = 16.0
+        self._fmt = FORMAT_8N1
+        self._n_bits = 10
+        self._cti_ticks = 0.0
+        self._data_mask = 0xFF
+        self._depth = 1
+        self._trigger = 1
+        self._rates()
+        self._fifo_setup()
+        # next_event() and next_irq_event(), kept until the state changes
+        self._ne_valid = False
+        self._ne: int | None = None
+        self._nie_valid = False
+        self._nie: int | None = None
 
     # -- rates ----------------------------------------------------------------------------
+    def _rates(self) -> None:
+        dl = (self.dlm << 8 | self.dll) or 1
+        div_add, mul = self.fdr & 0xF, (self.fdr >> 4) & 0xF
+        self._bit = 16.0 * dl * (1.0 + div_add / mul) if div_add and mul else 16.0 * dl
+        self._fmt = format_from_lcr(self.lcr)
+        self._n_bits = self._fmt.n_bits
+        self._data_mask = (1 << self._fmt.data_bits) - 1
+        self._cti_ticks = CTI_CHARACTERS * (self._n_bits * self._bit)
+
+    def _fifo_setup(self) -> None:
+        self._depth = FIFO_DEPTH if self.fcr & 1 else 1
+        self._trigger = TRIGGER_LEVELS[self.fcr >> 6 & 3] if self.fcr & 1 else 1
+
     @property
     def bit_ticks(self) -> float:
         """PCLK ticks per bit at the programmed divisor."""
-        dl = (self.dlm << 8 | self.dll) or 1
-        div_add, mul = self.fdr & 0xF, (self.fdr >> 4) & 0xF
-        return 16.0 * dl * (1.0 + div_add / mul) if div_add and mul else 16.0 * dl
+        return self._bit
 
     @property
     def fmt(self) -> FrameFormat:
-        return format_from_lcr(self.lcr)
+        return self._fmt
 
     @property
     def depth(self) -> int:
-        return FIFO_DEPTH if self.fcr & 1 else 1
+        return self._depth
 
     @property
     def trigger(self) -> int:
-        return TRIGGER_LEVELS[self.fcr >> 6 & 3] if self.fcr & 1 else 1
+        return self._trigger
 
     def _char_ticks(self) -> float:
-        return self.fmt.n_bits * self.bit_ticks
+        return self._n_bits * self._bit
+
+    def _changed(self) -> None:
+        self._ne_valid = self._nie_valid = False
 
     # -- the device's side ------------------------------------------------------------------
     def line_in(self, data: bytes, tick: float, bit_ticks: float, fmt: FrameFormat = FORMAT_8N1) -> None:
@@ -159,10 +219,13 @@ class Uart(RegisterFile):
         frame after the previous one (its transmitter paces them back to back)."""
         self.advance_to(math.floor(tick))
         start = max(tick, self.line.line_free)
+        levels = level_table(fmt)
+        push = self.line.push
         for value in data:
-            frame = LineFrame(start, bit_ticks, frame_levels(value, fmt), value, fmt)
-            self.line.push(frame)
+            frame = LineFrame(start, bit_ticks, levels[value], value, fmt)
+            push(frame)
             start = frame.end
+        self._changed()
 
     def take_tx(self) -> list[TxByte]:
         """Drain the bytes sent since the last call."""
@@ -173,26 +236,34 @@ class Uart(RegisterFile):
     def advance_to(self, tick: int) -> None:
         if tick <= self.now:
             return  # everything due by then has been done
-        if self._tsr_until is None and self._thre_int_at is None and not self.line.frames:
+        if self._ne_valid:
+            ne = self._ne
+            if ne is None or tick < ne:  # no character, transmitter event or time-out by then
+                self.now = tick
+                return
+        elif self._tsr_until is None and self._thre_int_at is None and not self.line.frames:
             self.now = tick
             return
+        self._ne_valid = self._nie_valid = False
         while True:
             due = self._due_before(tick)
             if due is None:
                 break
             self._step(due)
-        for char in self.line.take(tick, self.bit_ticks, self.fmt):
-            self._receive(char.value, char.framing_error, char.parity_error, char.break_, char.done)
+        self._take_rx(tick)
         self.now = max(self.now, tick)
 
     def _due_before(self, tick: int) -> float | None:
         """The earliest transmitter event at or before ``tick``."""
-        times = [t for t in (self._tsr_until, self._thre_int_at) if t is not None and t <= tick]
-        return min(times) if times else None
+        tsr, thre = self._tsr_until, self._thre_int_at
+        if tsr is not None and tsr <= tick:
+            return thre if thre is not None and thre < tsr else tsr
+        if thre is not None and thre <= tick:
+            return thre
+        return None
 
     def _step(self, t: float) -> None:
-        for char in self.line.take(t, self.bit_ticks, self.fmt):
-            self._receive(char.value, char.framing_error, char.parity_error, char.break_, char.done)
+        self._take_rx(t)
         if self._thre_int_at is not None and self._thre_int_at <= t:
             self._thre_int, self._thre_int_at = True, None
         if self._tsr_until is not None and self._tsr_until <= t:
@@ -200,25 +271,133 @@ class Uart(RegisterFile):
             self._load_tsr(t)
 
     def next_event(self) -> int | None:
-        times = [t for t in (self._tsr_until, self._thre_int_at) if t is not None]
-        done = self.line.peek_done(self.bit_ticks, self.fmt)
-        if done is not None:
-            times.append(done)
+        if self._ne_valid:
+            return self._ne
+        best = _INF
+        if self._tsr_until is not None:
+            best = self._tsr_until
+        if self._thre_int_at is not None and self._thre_int_at < best:
+            best = self._thre_int_at
+        if self.line.frames:
+            done = self.line.peek_done(self._bit, self._fmt)
+            if done is not None and done < best:
+                best = done
         if self.rx and self.ier & 1 and not self._cti_active(self.now):
-            times.append(self._last_rx_activity + CTI_CHARACTERS * self._char_ticks())
-        return math.ceil(min(times)) if times else None
+            cti = self._last_rx_activity + self._cti_ticks
+            if cti < best:
+                best = cti
+        self._ne = None if best == _INF else math.ceil(best)
+        self._ne_valid = True
+        return self._ne
+
+    def next_irq_event(self) -> int | None:
+        """The tick at or before which the interrupt line may next change without a register
+        access (None: not before one). Characters that change nothing (below the trigger
+        level, no time-out between them) are not events: a burst's bytes are taken at once."""
+        if not self._nie_valid:
+            self._nie = self._irq_horizon()
+            self._nie_valid = True
+        return self._nie
+
+    def _irq_horizon(self) -> int | None:
+        code = self._pending_code()
+        if code == _IIR_RLS or code == _IIR_RDA or code == _IIR_THRE:
+            return None  # asserted, and it stays so until the firmware reads or writes
+        ier = self.ier
+        best = _INF
+        if ier & 2:  # THRE rises when the FIFO empties (at a load of the shift register)
+            if self._thre_int_at is not None:
+                best = self._thre_int_at
+            elif self._tsr_until is not None and self.tx and self.ter & 0x80:
+                t = self._tsr_until
+                for _ in range(len(self.tx) - 1):
+                    t = t + self._n_bits * self._bit
+                best = t
+        if ier & 5:
+            if code == _IIR_CTI:  # the time-out alone asserts it: the next character ends it
+                if self.line.frames:
+                    done = self.line.peek_done(self._bit, self._fmt)
+                    if done is not None and done < best:
+                        best = done
+            else:
+                rise = self._rx_rise()
+                if rise < best:
+                    best = rise
+        return None if best == _INF else math.ceil(best)
+
+    def _rx_rise(self) -> float:
+        """With the line low: when the receiver next raises it (RDA at the trigger level, the
+        time-out, an overrun with RLS enabled), from the characters on the line."""
+        ier = self.ier
+        n = len(self.rx)
+        last = self._last_rx_activity
+        window = self._cti_ticks
+        if not self.line.frames:
+            return last + window if ier & 1 and n else _INF
+        depth, trigger = self._depth, self._trigger
+        dones, complete = self.line.clean_dones(self._bit, self._fmt, max(trigger - n, depth - n + 1, 1) + 1)
+        for done in dones:
+            if ier & 1 and n:
+                cti = last + window
+                if done > math.ceil(cti):
+                    return cti  # the time-out comes before this character
+            if n >= depth:
+                if ier & 4:
+                    return done  # an overrun: OE, RLS
+                continue
+            n += 1
+            last = done
+            if ier & 1 and n >= trigger:
+                return done
+        if not complete:  # the next character is not read whole (it may be an error): stop at it
+            nxt = self.line.peek_done(self._bit, self._fmt) if not dones else dones[-1]
+            bound = _INF if nxt is None else nxt
+            return min(bound, last + window) if ier & 1 and n else bound
+        return last + window if ier & 1 and n else _INF
 
     # -- receiver -------------------------------------------------------------------------
+    def _take_rx(self, t: float) -> None:
+        if not self.line.frames:
+            return
+        chars = self.line.take_raw(t, self._bit, self._fmt)
+        if not chars:
+            return
+        rx = self.rx
+        depth = self._depth
+        mask = self._data_mask
+        overruns = errors_seen = 0
+        for value, fe, pe, brk, done in chars:
+            if len(rx) >= depth:
+                self.lsr_errors |= _OE
+                overruns += 1
+                continue
+            errors = (_FE if fe else 0) | (_PE if pe else 0) | (_BI if brk else 0)
+            if errors:
+                errors_seen += 1
+                self._rx_errs += 1
+            rx.append((value & mask, errors))
+            self._last_rx_activity = done
+            if not self._top_shown:
+                self.lsr_errors |= rx[0][1]
+                self._top_shown = True
+        counters = self.counters
+        counters["rx_chars"] += len(chars)
+        if overruns:
+            counters["rx_overruns"] += overruns
+        if errors_seen:
+            counters["rx_errors"] += errors_seen
+
     def _receive(self, value: int, fe: bool, pe: bool, brk: bool, t: float) -> None:
         self.counters["rx_chars"] += 1
-        if len(self.rx) >= self.depth:
-            self.lsr_errors |= Lsr.OE
+        if len(self.rx) >= self._depth:
+            self.lsr_errors |= _OE
             self.counters["rx_overruns"] += 1
             return
-        errors = (Lsr.FE if fe else 0) | (Lsr.PE if pe else 0) | (Lsr.BI if brk else 0)
+        errors = (_FE if fe else 0) | (_PE if pe else 0) | (_BI if brk else 0)
         if errors:
             self.counters["rx_errors"] += 1
-        self.rx.append((value & ((1 << self.fmt.data_bits) - 1), errors))
+            self._rx_errs += 1
+        self.rx.append((value & self._data_mask, errors))
         self._last_rx_activity = t
         self._show_top()
 
@@ -228,12 +407,14 @@ class Uart(RegisterFile):
             self._top_shown = True
 
     def _cti_active(self, now: float) -> bool:
-        return bool(self.rx) and now >= self._last_rx_activity + CTI_CHARACTERS * self._char_ticks()
+        return bool(self.rx) and now >= self._last_rx_activity + self._cti_ticks
 
     def _read_rbr(self) -> int:
         if not self.rx:
             return 0  # RBR with no data: the last value is undefined; the model reads 0
-        value, _ = self.rx.popleft()
+        value, err = self.rx.popleft()
+        if err:
+            self._rx_errs -= 1
         self._top_shown = False
         self._last_rx_activity = float(self.now)
         self._show_top()
@@ -242,11 +423,12 @@ class Uart(RegisterFile):
     # -- transmitter ----------------------------------------------------------------------
     def _write_thr(self, value: int) -> None:
         self._thre_int, self._thre_int_at = False, None
-        if len(self.tx) >= self.depth:
+        if len(self.tx) >= self._depth:
             self.counters["tx_fifo_overflows"] += 1
             return
         self.tx.append(value & 0xFF)
-        self._tx_peak = max(self._tx_peak, len(self.tx))
+        if len(self.tx) > self._tx_peak:
+            self._tx_peak = len(self.tx)
         if self._tsr_until is None:
             self._load_tsr(float(self.now))
 
@@ -254,8 +436,8 @@ class Uart(RegisterFile):
         if not self.tx or not self.ter & 0x80:
             return
         value = self.tx.popleft()
-        bit = self.bit_ticks
-        fmt = self.fmt
+        bit = self._bit
+        fmt = self._fmt
         self._tsr_until = t + fmt.n_bits * bit
         self._sent.append(TxByte(t, self._tsr_until, value, bit, fmt))
         self.counters["tx_bytes"] += 1
@@ -265,100 +447,120 @@ class Uart(RegisterFile):
             self._tx_peak = 0
 
     # -- interrupts -----------------------------------------------------------------------
-    def _pending(self) -> Iir:
+    def _pending_code(self) -> int:
         ier = self.ier
-        if ier & 4 and self.lsr_errors & _ERRORS:
-            return Iir.RLS
+        if ier & 4 and self.lsr_errors & _ERROR_BITS:
+            return _IIR_RLS
         if ier & 1 and self.rx:
-            if len(self.rx) >= self.trigger:
-                return Iir.RDA
-            if self._cti_active(self.now):
-                return Iir.CTI
+            if len(self.rx) >= self._trigger:
+                return _IIR_RDA
+            if self.now >= self._last_rx_activity + self._cti_ticks:
+                return _IIR_CTI
         if ier & 2 and self._thre_int:
-            return Iir.THRE
-        return Iir.NONE
+            return _IIR_THRE
+        return _IIR_NONE
+
+    def _pending(self) -> Iir:
+        return Iir(self._pending_code())
 
     @property
     def irq(self) -> bool:
-        return self._pending() != Iir.NONE
+        return self._pending_code() != _IIR_NONE
 
     def lsr(self) -> int:
         """LSR's value (without the read's side effects)."""
-        value = self.lsr_errors & _ERRORS
+        value = self.lsr_errors & _ERROR_BITS
         if self.rx:
-            value |= Lsr.DR
+            value |= _DR
         if not self.tx:
-            value |= Lsr.THRE
+            value |= _THRE
             if self._tsr_until is None:
-                value |= Lsr.TEMT
-        if any(err for _, err in self.rx):
-            value |= Lsr.RXFE
+                value |= _TEMT
+        if self._rx_errs:
+            value |= _RXFE
         return value
 
     # -- registers ------------------------------------------------------------------------
     def read(self, offset: int, tick: int) -> int:
         self.advance_to(tick)
         dlab = self.lcr & 0x80
-        if offset == UartReg.RBR_THR_DLL:
-            return self.dll if dlab else self._read_rbr()
-        if offset == UartReg.IER_DLM:
-            return self.dlm if dlab else self.ier
-        if offset == UartReg.IIR_FCR:
-            pending = self._pending()
-            if pending == Iir.THRE:
-                self._thre_int = False
-            return int(pending) | (0xC0 if self.fcr & 1 else 0)
-        if offset == UartReg.LSR:
+        if offset == _LSR:
             value = self.lsr()
-            self.lsr_errors = 0
+            if self.lsr_errors:
+                self.lsr_errors = 0
+                self._ne_valid = self._nie_valid = False
             return value
-        if self.modem and offset == UartReg.MSR:
+        if offset == _RBR:
+            if dlab:
+                return self.dll
+            self._ne_valid = self._nie_valid = False
+            return self._read_rbr()
+        if offset == _IIR:
+            pending = self._pending_code()
+            if pending == _IIR_THRE:
+                self._thre_int = False
+                self._ne_valid = self._nie_valid = False
+            return pending | (0xC0 if self.fcr & 1 else 0)
+        if offset == _IER:
+            return self.dlm if dlab else self.ier
+        if self.modem and offset == _MSR:
             return 0
-        values: dict[int, int] = {UartReg.LCR: self.lcr, UartReg.SCR: self.scr, UartReg.ACR: self.acr,
-                                  UartReg.FDR: self.fdr, UartReg.TER: self.ter}
-        if self.modem:
-            values[UartReg.MCR] = self.mcr
-        if offset in values:
-            return values[offset]
+        if offset == _LCR:
+            return self.lcr
+        if offset == _SCR:
+            return self.scr
+        if offset == _ACR:
+            return self.acr
+        if offset == _FDR:
+            return self.fdr
+        if offset == _TER:
+            return self.ter
+        if self.modem and offset == _MCR:
+            return self.mcr
         raise self.unmodelled(offset, "read")
 
     def write(self, offset: int, value: int, tick: int) -> None:
         self.advance_to(tick)
+        self._ne_valid = self._nie_valid = False
         value &= 0xFFFF_FFFF
         dlab = self.lcr & 0x80
-        if offset == UartReg.RBR_THR_DLL:
+        if offset == _RBR:
             if dlab:
                 self.dll = value & 0xFF
+                self._rates()
             else:
                 self._write_thr(value)
-        elif offset == UartReg.IER_DLM:
+        elif offset == _IER:
             if dlab:
                 self.dlm = value & 0xFF
+                self._rates()
             else:
                 if value & 2 and not self.ier & 2 and not self.tx:
                     self._thre_int = True
                 self.ier = value & (0x38F if self.modem else 0x307)
-        elif offset == UartReg.IIR_FCR:
+        elif offset == _IIR:
             self._write_fcr(value)
-        elif offset == UartReg.LCR:
+        elif offset == _LCR:
             self.lcr = value & 0xFF
-        elif offset == UartReg.SCR:
+            self._rates()
+        elif offset == _SCR:
             self.scr = value & 0xFF
-        elif offset == UartReg.ACR:
+        elif offset == _ACR:
             if value & 1:
                 raise NotModelled(self.base + offset, f"{self.name} auto-baud")
             self.acr = value & 0x307
-        elif offset == UartReg.FDR:
+        elif offset == _FDR:
             self.fdr = value & 0xFF
-        elif offset == UartReg.TER:
+            self._rates()
+        elif offset == _TER:
             self.ter = value & 0x80
             if self.ter and self._tsr_until is None:
                 self._load_tsr(float(self.now))
-        elif self.modem and offset == UartReg.MCR:
+        elif self.modem and offset == _MCR:
             if value & 0xD0:
                 raise NotModelled(self.base + offset, f"{self.name} loopback or auto flow control")
             self.mcr = value & 0xFF
-        elif offset in (UartReg.LSR, UartReg.MSR) and (offset == UartReg.LSR or self.modem):
+        elif offset in (_LSR, _MSR) and (offset == _LSR or self.modem):
             raise self.read_only(offset, UartReg(offset).name)
         else:
             raise self.unmodelled(offset, "write")
@@ -366,10 +568,13 @@ class Uart(RegisterFile):
     def _write_fcr(self, value: int) -> None:
         if (value ^ self.fcr) & 1:  # switching the FIFOs on or off empties them
             self.rx.clear()
+            self._rx_errs = 0
             self.tx.clear()
         if value & 2:
             self.rx.clear()
+            self._rx_errs = 0
             self._top_shown = False
         if value & 4:
             self.tx.clear()
         self.fcr = value & 0xC1  # the reset bits clear themselves
+        self._fifo_setup()

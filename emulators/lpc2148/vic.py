@@ -23,6 +23,7 @@ the PL190's test registers.
 from __future__ import annotations
 
 from enum import IntEnum, unique
+from typing import Final
 
 from emulators.lpc2148.regs import MASK32, RegisterFile
 
@@ -54,8 +55,25 @@ class VicReg(IntEnum):
     VECT_CNTL0 = 0x200  #: .. 0x23C
 
 
+_VECT_ADDR: Final = int(VicReg.VECT_ADDR)
+_VECT_ADDR0: Final = int(VicReg.VECT_ADDR0)
+_VECT_CNTL0: Final = int(VicReg.VECT_CNTL0)
+_IRQ_STATUS: Final = int(VicReg.IRQ_STATUS)
+_FIQ_STATUS: Final = int(VicReg.FIQ_STATUS)
+_RAW_INTR: Final = int(VicReg.RAW_INTR)
+_INT_SELECT: Final = int(VicReg.INT_SELECT)
+_INT_ENABLE: Final = int(VicReg.INT_ENABLE)
+_INT_EN_CLR: Final = int(VicReg.INT_EN_CLR)
+_SOFT_INT: Final = int(VicReg.SOFT_INT)
+_SOFT_INT_CLEAR: Final = int(VicReg.SOFT_INT_CLEAR)
+_PROTECTION: Final = int(VicReg.PROTECTION)
+_DEF_VECT_ADDR: Final = int(VicReg.DEF_VECT_ADDR)
+
+
 class Vic(RegisterFile):
-    """The VIC. The bus sets the peripherals' request lines with :meth:`set_sources`."""
+    """The VIC. The bus sets the peripherals' request lines with :meth:`set_sources`.
+
+    nIRQ and nFIQ are computed when an input or a register changes, not when they are read."""
 
     name = "VIC"
 
@@ -71,11 +89,25 @@ class Vic(RegisterFile):
         self.vect_cntl = [0] * N_SLOTS
         #: priority levels in service, innermost last (slot number, or NON_VECTORED)
         self.in_service: list[int] = []
+        #: channel -> its priority level (from vect_cntl)
+        self._levels = [NON_VECTORED] * 32
+        self._irq = False
+        self._fiq = False
 
     # -- inputs ---------------------------------------------------------------------------
     def set_sources(self, mask: int) -> None:
         """The levels of the 32 request lines (bit n = channel n asserted)."""
-        self.sources = mask & MASK32
+        mask &= MASK32
+        if mask != self.sources:
+            self.sources = mask
+            self._outputs()
+
+    def _outputs(self) -> None:
+        """nIRQ and nFIQ from the inputs and the registers."""
+        active = (self.sources | self.soft_int) & self.int_enable
+        self._fiq = active & self.int_select != 0
+        irq = active & ~self.int_select & MASK32
+        self._irq = irq != 0 and self._highest_of(irq) < self._current_level()
 
     # -- derived state --------------------------------------------------------------------
     @property
@@ -101,76 +133,94 @@ class Vic(RegisterFile):
     def _current_level(self) -> int:
         return self.in_service[-1] if self.in_service else _NOTHING_IN_SERVICE
 
-    def _highest_active(self) -> int:
-        """The highest-priority (lowest) level among the active IRQs, _NOTHING_IN_SERVICE if none."""
-        status = self.irq_status
+    def _highest_of(self, status: int) -> int:
+        """The highest-priority (lowest) level among the channels in ``status``."""
+        levels = self._levels
         best = _NOTHING_IN_SERVICE
         channel = 0
         while status:
-            if status & 1:
-                best = min(best, self._level_of(channel))
+            if status & 1 and levels[channel] < best:
+                best = levels[channel]
             status >>= 1
             channel += 1
         return best
 
+    def _highest_active(self) -> int:
+        """The highest-priority (lowest) level among the active IRQs, _NOTHING_IN_SERVICE if none."""
+        return self._highest_of(self.irq_status)
+
     @property
     def irq_request(self) -> bool:
         """nIRQ asserted: an active IRQ above the priority in service."""
-        return self.irq_status != 0 and self._highest_active() < self._current_level()
+        return self._irq
 
     @property
     def fiq_request(self) -> bool:
         """nFIQ asserted: an active FIQ (FIQs have no priority logic)."""
-        return self.fiq_status != 0
+        return self._fiq
 
     # -- registers ------------------------------------------------------------------------
     def read(self, offset: int, tick: int = 0) -> int:
-        if offset == VicReg.VECT_ADDR:
+        if offset == _VECT_ADDR:
             return self._acknowledge()
-        if VicReg.VECT_ADDR0 <= offset < VicReg.VECT_ADDR0 + 4 * N_SLOTS:
-            return self.vect_addr[(offset - VicReg.VECT_ADDR0) >> 2]
-        if VicReg.VECT_CNTL0 <= offset < VicReg.VECT_CNTL0 + 4 * N_SLOTS:
-            return self.vect_cntl[(offset - VicReg.VECT_CNTL0) >> 2]
-        simple: dict[int, int] = {
-            VicReg.IRQ_STATUS: self.irq_status, VicReg.FIQ_STATUS: self.fiq_status, VicReg.RAW_INTR: self.raw,
-            VicReg.INT_SELECT: self.int_select, VicReg.INT_ENABLE: self.int_enable, VicReg.SOFT_INT: self.soft_int,
-            VicReg.PROTECTION: self.protection, VicReg.DEF_VECT_ADDR: self.def_vect_addr,
-        }
-        if offset in simple:
-            return simple[offset]
-        if offset == VicReg.INT_EN_CLR:
+        if _VECT_ADDR0 <= offset < _VECT_ADDR0 + 4 * N_SLOTS:
+            return self.vect_addr[(offset - _VECT_ADDR0) >> 2]
+        if _VECT_CNTL0 <= offset < _VECT_CNTL0 + 4 * N_SLOTS:
+            return self.vect_cntl[(offset - _VECT_CNTL0) >> 2]
+        if offset == _IRQ_STATUS:
+            return self.irq_status
+        if offset == _FIQ_STATUS:
+            return self.fiq_status
+        if offset == _RAW_INTR:
+            return self.raw
+        if offset == _INT_SELECT:
+            return self.int_select
+        if offset == _INT_ENABLE:
+            return self.int_enable
+        if offset == _SOFT_INT:
+            return self.soft_int
+        if offset == _PROTECTION:
+            return self.protection
+        if offset == _DEF_VECT_ADDR:
+            return self.def_vect_addr
+        if offset == _INT_EN_CLR:
             raise self.write_only(offset, "VICIntEnClr")
-        if offset == VicReg.SOFT_INT_CLEAR:
+        if offset == _SOFT_INT_CLEAR:
             raise self.write_only(offset, "VICSoftIntClear")
         raise self.unmodelled(offset, "read")
 
     def write(self, offset: int, value: int, tick: int = 0) -> None:
         value &= MASK32
-        if offset == VicReg.VECT_ADDR:
+        if offset == _VECT_ADDR:
             if self.in_service:  # the ISR's end: lower priorities may interrupt again
                 self.in_service.pop()
-        elif VicReg.VECT_ADDR0 <= offset < VicReg.VECT_ADDR0 + 4 * N_SLOTS:
-            self.vect_addr[(offset - VicReg.VECT_ADDR0) >> 2] = value
-        elif VicReg.VECT_CNTL0 <= offset < VicReg.VECT_CNTL0 + 4 * N_SLOTS:
-            self.vect_cntl[(offset - VicReg.VECT_CNTL0) >> 2] = value & (_SLOT_ENABLE | _SLOT_CHANNEL)
-        elif offset == VicReg.INT_SELECT:
+        elif _VECT_ADDR0 <= offset < _VECT_ADDR0 + 4 * N_SLOTS:
+            self.vect_addr[(offset - _VECT_ADDR0) >> 2] = value
+            return
+        elif _VECT_CNTL0 <= offset < _VECT_CNTL0 + 4 * N_SLOTS:
+            self.vect_cntl[(offset - _VECT_CNTL0) >> 2] = value & (_SLOT_ENABLE | _SLOT_CHANNEL)
+            self._levels = [self._level_of(c) for c in range(32)]
+        elif offset == _INT_SELECT:
             self.int_select = value
-        elif offset == VicReg.INT_ENABLE:
+        elif offset == _INT_ENABLE:
             self.int_enable |= value  # writing 0s has no effect (VICIntEnClr clears)
-        elif offset == VicReg.INT_EN_CLR:
+        elif offset == _INT_EN_CLR:
             self.int_enable &= ~value
-        elif offset == VicReg.SOFT_INT:
+        elif offset == _SOFT_INT:
             self.soft_int |= value
-        elif offset == VicReg.SOFT_INT_CLEAR:
+        elif offset == _SOFT_INT_CLEAR:
             self.soft_int &= ~value
-        elif offset == VicReg.PROTECTION:
+        elif offset == _PROTECTION:
             self.protection = value & 1
-        elif offset == VicReg.DEF_VECT_ADDR:
+            return
+        elif offset == _DEF_VECT_ADDR:
             self.def_vect_addr = value
-        elif offset in (VicReg.IRQ_STATUS, VicReg.FIQ_STATUS, VicReg.RAW_INTR):
+            return
+        elif offset in (_IRQ_STATUS, _FIQ_STATUS, _RAW_INTR):
             raise self.read_only(offset, VicReg(offset).name)
         else:
             raise self.unmodelled(offset, "write")
+        self._outputs()
 
     def _acknowledge(self) -> int:
         """A read of VICVectAddr: the address of the interrupt now serviced, and its priority
@@ -179,4 +229,5 @@ class Vic(RegisterFile):
         if level >= self._current_level():
             return self.def_vect_addr  # nothing above what is in service: no push
         self.in_service.append(level)
+        self._outputs()
         return self.def_vect_addr if level == NON_VECTORED else self.vect_addr[level]
