@@ -36,6 +36,7 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
         "virtual": "clock: virtual (the flight code ran on sim time; load does not change the flight)",
         "wall": "clock: host (lockstep fallback: load can change the flight)",
         "realtime": "clock: host, realtime",
+        "board": "clock: the emulated LPC2148's cycles (the firmware's time; load does not change the flight)",
     }[result.clock.value]
     if result.rt_scheduling is not None:
         clock_line += f", {result.rt_scheduling.describe()}"
@@ -71,6 +72,8 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
         if key in t:
             timing.add_row(key, _fmt(t[key]))
     console.print(timing)
+    if "board_cclk_hz" in t:
+        _print_board(console, t)
     if result.flight_returncode not in (None, 0) or result.end_reason.value != "completed":
         console.print(f"flight code exit status: {result.flight_returncode}")
         if result.flight_stderr_tail:
@@ -80,3 +83,32 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
     if result.dropped:
         console.print(f"[yellow]recorder dropped {result.dropped} messages (queue full)[/]")
     console.print(f"log: {result.log_path}" if result.log_path else "log: (not recorded)")
+
+
+#: a board run's figures as the summary shows them (hil/flight/board_timing.py has them all)
+_BOARD_ROWS = (
+    ("loop busy cycles p50 / p99 / max", ("board_loop_busy_p50_cycles", "board_loop_busy_p99_cycles",
+                                          "board_loop_busy_max_cycles")),
+    ("CPU load % (flight / busiest tick)", ("board_cpu_load_pct", "board_cpu_load_max_pct")),
+    ("interrupt latency cycles p50 / p99 / max", ("board_irq_latency_p50_cycles", "board_irq_latency_p99_cycles",
+                                                  "board_irq_latency_max_cycles")),
+    ("UART RX overruns (UART0 / UART1)", ("board_uart0_rx_overruns", "board_uart1_rx_overruns")),
+    ("ESC pulses late / missed", ("board_esc_pulses_late", "board_esc_pulses_missed")),
+    ("samples processed / dropped", ("board_samples_processed", "board_samples_dropped")),
+)
+
+
+def _print_board(console: Console, t: dict[str, float]) -> None:
+    """The emulated LPC2148's figures, in target cycles."""
+    table = Table(title=f"board (emulated LPC2148 at {t['board_cclk_hz'] / 1e6:g} MHz)")
+    table.add_column("figure")
+    table.add_column("value")
+    for label, keys in _BOARD_ROWS:
+        if all(k in t for k in keys):
+            table.add_row(label, " / ".join(_fmt(t[k]) for k in keys))
+    modes = [k.removeprefix("board_stack_").removesuffix("_used_B") for k in t
+             if k.startswith("board_stack_") and k.endswith("_used_B")]
+    if modes:
+        table.add_row("stack used / region B", ", ".join(
+            f"{m} {t[f'board_stack_{m}_used_B']:.0f}/{t[f'board_stack_{m}_size_B']:.0f}" for m in modes))
+    console.print(table)

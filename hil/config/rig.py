@@ -11,7 +11,8 @@ vehicle; unknown tables and keys are errors naming the file and key):
     [rc]         frontend = "capture" | "sbus"; [rc.ppm], [rc.capture], [rc.sbus]
     [esc]        [esc.maestro], [esc.esc]
     [telemetry]  [telemetry.vehicle], [telemetry.ground], [telemetry.link]
-    [flight]     command, config (the flight code's config template), timeouts
+    [flight]     command, config (the flight code's config template), timeouts; or board and
+                 firmware (the firmware's ARM image on an emulated LPC2148)
     [record]     recording rates
     [ports.<port>]  attach a port to a real serial device or URL (hil/config/attach.py)
 """
@@ -68,6 +69,10 @@ class RigHeader:
     default_scenario: str = "mission"
 
 
+#: ``[flight] firmware`` naming firmware/'s ARM build (``hil firmware build --target arm``)
+FIRMWARE_TARGET = "arm"
+
+
 @dataclass(frozen=True)
 class FlightSection:
     """How the bench starts the flight code. ``{python}`` and ``{config}`` are substituted."""
@@ -99,6 +104,17 @@ class FlightSection:
     #: tables merged over the flight code's config template for this rig (e.g. gains retuned
     #: for this rig's plant), before a scenario's own ``[flight]`` overrides
     overrides: dict[str, Any] = field(default_factory=dict)
+    #: the flight computer: "" a process (``command``); "lpc2148" the firmware's ARM image on
+    #: the emulated LPC2148 (docs/board.md), lockstep in target cycles; ``command`` is not used
+    board: Literal["", "lpc2148"] = ""
+    #: a board's firmware: "arm" (firmware/'s ARM build, made first if needed) or the path of
+    #: an ARM ELF, relative to the rig file
+    firmware: str = ""
+
+    @property
+    def firmware_target(self) -> bool:
+        """``firmware`` names the ARM build rather than a file."""
+        return self.firmware == FIRMWARE_TARGET
 
 
 @dataclass(frozen=True)
@@ -196,6 +212,12 @@ class Rig:
     def flight_config_path(self) -> Path:
         return (self.path.parent / self.flight.config).resolve()
 
+    @property
+    def firmware_path(self) -> Path:
+        """A board's firmware file (``[flight] firmware`` relative to the rig file; not for
+        the build target)."""
+        return (self.path.parent / self.flight.firmware).resolve()
+
     def device_baud(self, port: str) -> int:
         """The line rate (bit/s) of the emulated device on ``port``."""
         if port == "imu":
@@ -278,4 +300,21 @@ def load_rig(name_or_path: str | Path | None = None) -> Rig:
     )
     if not rig.flight_config_path.exists():
         raise ConfigError(f"{path}: [flight] config: {rig.flight_config_path} does not exist")
+    _check_board(rig, path)
     return rig
+
+
+def _check_board(rig: Rig, path: Path) -> None:
+    """``[flight] board`` and ``firmware`` go together; a firmware file must exist."""
+    flight = rig.flight
+    if not flight.board:
+        if flight.firmware:
+            raise ConfigError(f"{path}: [flight] firmware: set without [flight] board (the firmware runs on an "
+                              f"emulated board: board = \"lpc2148\")")
+        return
+    if not flight.firmware:
+        raise ConfigError(f"{path}: [flight] firmware: missing (board = {flight.board!r} needs the ARM image: "
+                          f"\"{FIRMWARE_TARGET}\" for firmware/'s build, or the path of an ELF file)")
+    if not flight.firmware_target and not rig.firmware_path.is_file():
+        raise ConfigError(f"{path}: [flight] firmware: {rig.firmware_path} is not a file (\"{FIRMWARE_TARGET}\" "
+                          "builds firmware/'s ARM image)")

@@ -32,6 +32,7 @@ from hil.config.attach import follow_device_rates, refuse_lockstep, resolve_atta
 from hil.config.rig import Rig, load_rig
 from hil.config.scenario import Scenario, apply_to_rig, load_scenario
 from hil.flight import run_setup
+from hil.flight.board_run import acquire_board, check_board_run
 from hil.flight.devices import DeviceSet
 from hil.flight.flight_check import check_flight_config
 from hil.flight.process import expand_command
@@ -133,11 +134,14 @@ async def run_flight_async(
                duration_ns=scenario.duration_ns if duration_s is None else int(duration_s * 1e9),
                started_ns=started_ns,
                require_vt=rig.flight.require_virtual_time if require_virtual_time is None else require_virtual_time)
+    if rig.flight.board:
+        check_board_run(rig, mode, attach)
     attachments = resolve_attachments(rig.ports, attach or {}, PORTS, command="run")
     refuse_lockstep(attachments, mode.value)
     rt = rtsched.for_rig(rig, realtime=mode is Mode.REALTIME)  # "fifo" refused: nothing is created yet
     wake = cpulatency.for_rig(rig)  # "require" refused: likewise
-    await check_flight_config(rig, scenario, scenario_source)  # the flight code's own word on [flight] overrides
+    if not rig.flight.board:  # a board's firmware checks the config it is given, at boot
+        await check_flight_config(rig, scenario, scenario_source)  # the flight code's own word on [flight] overrides
     async with contextlib.AsyncExitStack() as stack:
         await _acquire(stack, run, attachments, keep_run_dir=keep_run_dir, stress_adc_delay_us=stress_adc_delay_us,
                        record=record, out_dir=out_dir, log_path=log_path, keep_trace=keep_trace,
@@ -166,6 +170,11 @@ async def _acquire(stack: contextlib.AsyncExitStack, run: RunState, attachments:
                    live: LiveConfig | None) -> None:
     """Every resource of the run, each on ``stack`` as soon as it exists (hil/flight/run_setup.py)."""
     rig, scenario, runner = run.rig, run.scenario, run.runner
+    if rig.flight.board:  # the emulated board in place of a process, its ptys and clock session
+        await acquire_board(stack, run, lambda ports, files, meta: _record(
+            stack, run, ports, files, meta, record=record, out_dir=out_dir, log_path=log_path,
+            keep_trace=keep_trace, live=live))
+        return
     with run_setup.started("opening the serial lines"):  # all or none: a missing/busy one leaves nothing
         run.attached = run_setup.open_serial_lines(stack, attachments, rig)
     with run_setup.started("creating the run directory"):
@@ -177,32 +186,10 @@ async def _acquire(stack: contextlib.AsyncExitStack, run: RunState, attachments:
         run.ports = await run_setup.open_ports(stack, PORTS, run.run_dir / "dev", run.attached)
     devices.attach(dict(run.ports))
     follow_device_rates(devices, run.attached)  # type: ignore[arg-type]
-    run_start_unix_ns = clock.wall_ns()
-    if record:
-        out = Path(out_dir or "logs")
-        meta = run_metadata(rig, scenario, run.seed, run.mode, run.duration_ns)
-        files = [(rig.path.name, "application/toml", rig.path.read_bytes()),
-                 (rig.flight_config_path.name, "application/toml", rig.flight_config_path.read_bytes()),
-                 (f"{scenario.name}.toml", "application/toml", runner.source_bytes())]
-        with run_setup.started("starting the recorder"):
-            out.mkdir(parents=True, exist_ok=True)
-            run.recorder = run_setup.start_recorder(
-                stack, lambda path: ProcessRecorder(path, run_start_unix_ns=run_start_unix_ns, metadata=meta,
-                                                    attachments=files, live=live,
-                                                    duration_ns=run.duration_ns),
-                log_path or default_log_path(out, rig, scenario, run.seed), unique=log_path is None)
-    # The criteria read the run's signals as they stream (a delay line longer than the oldest
-    # stamp a telemetry frame may carry), so no sample is kept for the whole run unless asked.
-    # Realtime: the criteria's work on a chunk (0.5-2.3 ms, once a second) waits for the time
-    # the ticks leave, instead of making one tick late (docs/performance.md, "Realtime").
-    stream = run.stream = TraceStream(horizon_ns=STAMP_MAX_AGE_NS + 100 * rig.tick_ns,
-                                      deferred=run.mode is Mode.REALTIME)
-    run.trace = Trace() if keep_trace else None
-    sink: TraceSink = stream if run.trace is None else TraceTee(stream, run.trace)
-    logger = run.logger = RunLogger(run.recorder, sink, devices, run.ports, rig, run_start_unix_ns)
-    runner.log_event = logger.event
-    run.criteria_stream = CriteriaStream(scenario.criteria, stream)
-    run.telemetry_compute_us = held_stats(stream, "tm.compute_last_us")
+    logger = _record(stack, run, run.ports, [], {}, record=record, out_dir=out_dir, log_path=log_path,
+                     keep_trace=keep_trace, live=live)
+    stream = run.stream
+    assert stream is not None
     with run_setup.started("writing the flight code's config"):
         argv = expand_command(rig.flight.command,
                               config=run_setup.write_config(rig, scenario, run.ports, run.run_dir))
@@ -236,6 +223,43 @@ async def _acquire(stack: contextlib.AsyncExitStack, run: RunState, attachments:
     if stream.deferred:
         loop.slack_work = lambda deadline_ns: pump_before(stream, deadline_ns)
     runner.attach_flight(flight)
+
+
+def _record(stack: contextlib.AsyncExitStack, run: RunState, ports: Mapping[str, Any],
+            files: list[tuple[str, str, bytes]], meta: dict[str, str], *, record: bool,
+            out_dir: Path | str | None, log_path: Path | None, keep_trace: bool,
+            live: LiveConfig | None) -> RunLogger:
+    """The recorder child (with the run's files and ``files``, its metadata and ``meta``), the
+    criteria's stream and the run logger on ``ports``."""
+    rig, scenario, runner, devices = run.rig, run.scenario, run.runner, run.devices
+    assert devices is not None
+    run_start_unix_ns = clock.wall_ns()
+    if record:
+        out = Path(out_dir or "logs")
+        meta = run_metadata(rig, scenario, run.seed, run.mode, run.duration_ns) | meta
+        files = [(rig.path.name, "application/toml", rig.path.read_bytes()),
+                 (rig.flight_config_path.name, "application/toml", rig.flight_config_path.read_bytes()),
+                 (f"{scenario.name}.toml", "application/toml", runner.source_bytes()), *files]
+        with run_setup.started("starting the recorder"):
+            out.mkdir(parents=True, exist_ok=True)
+            run.recorder = run_setup.start_recorder(
+                stack, lambda path: ProcessRecorder(path, run_start_unix_ns=run_start_unix_ns, metadata=meta,
+                                                    attachments=files, live=live,
+                                                    duration_ns=run.duration_ns),
+                log_path or default_log_path(out, rig, scenario, run.seed), unique=log_path is None)
+    # The criteria read the run's signals as they stream (a delay line longer than the oldest
+    # stamp a telemetry frame may carry), so no sample is kept for the whole run unless asked.
+    # Realtime: the criteria's work on a chunk (0.5-2.3 ms, once a second) waits for the time
+    # the ticks leave, instead of making one tick late (docs/performance.md, "Realtime").
+    stream = run.stream = TraceStream(horizon_ns=STAMP_MAX_AGE_NS + 100 * rig.tick_ns,
+                                      deferred=run.mode is Mode.REALTIME)
+    run.trace = Trace() if keep_trace else None
+    sink: TraceSink = stream if run.trace is None else TraceTee(stream, run.trace)
+    logger = run.logger = RunLogger(run.recorder, sink, devices, ports, rig, run_start_unix_ns)
+    runner.log_event = logger.event
+    run.criteria_stream = CriteriaStream(scenario.criteria, stream)
+    run.telemetry_compute_us = held_stats(stream, "tm.compute_last_us")
+    return logger
 
 
 async def _fly_and_finish(run: RunState, rt: Any, wake: Any, hog: CpuHog, *, keep_run_dir: bool) -> RunResult:
@@ -279,7 +303,8 @@ async def _fly_and_finish(run: RunState, rt: Any, wake: Any, hog: CpuHog, *, kee
             rec_cpu.start()
             end = await loop.run()
             if end is EndReason.FLIGHT_EXITED:
-                message = f"the flight code exited with status {flight.returncode} at t = {loop.t_ns / 1e9:.3f} s"
+                message = (run.board.exit_message(loop.t_ns) if run.board is not None else
+                           f"the flight code exited with status {flight.returncode} at t = {loop.t_ns / 1e9:.3f} s")
     except asyncio.CancelledError:
         end, message = EndReason.INTERRUPTED, "interrupted (Ctrl-C)"
     except VirtualTimeRequired as exc:  # a fall-back during boot: finalize the log, then say so

@@ -90,9 +90,13 @@ async def finish_run(run: RunState, end: EndReason, message: str, steal_ms: floa
         steal_note = realtime_note(steal_ms, loop.stats.late_ticks, loop.stats.no_command) if realtime else None
         if steal_note is not None:
             run.note(steal_note)
+    if run.board is not None:  # the board's own figures, in target cycles (hil/flight/board_timing.py)
+        timing |= run.board.figures()
     assert run.criteria_stream is not None
     criteria = run.criteria_stream.results() if end is EndReason.COMPLETED else []
     criteria += run.runner.timing_criteria(timing, logger)
+    if run.board is not None and end is EndReason.COMPLETED:
+        criteria += run.board.criteria(timing)
     held = realtime_criterion(loop, rig.tick_ns) if realtime and end is EndReason.COMPLETED else None
     if held is not None:
         criteria.append(held)

@@ -92,15 +92,19 @@ def timing_summary(loop: TickLoop, tick_ns: int, telemetry_compute_us: Streaming
         "esc_commands": float(st.esc_commands),
     }
     lat = loop.devices.latency_stats  # streamed: every sample's figures, bounded memory
-    virtual = st.clock is Clock.VIRTUAL
+    # on sim time: virtual time's flight code, or a board's firmware (its compute in target cycles)
+    virtual = st.clock in (Clock.VIRTUAL, Clock.BOARD)
+    if st.clock is Clock.BOARD:
+        cpu_scale = 1.0  # the target's own cycles: nothing to scale
     out |= _percentiles("latency", st.latencies_ns, 1e-3)
-    out |= _percentiles("host_latency", lat.host_latency_ns, 1e-3)
+    if st.clock is not Clock.BOARD:  # a board's answers come in its cycles, not at a host instant
+        out |= _percentiles("host_latency", lat.host_latency_ns, 1e-3)
     if st.tick_cost_ns:
         cost = st.tick_cost_ns
         out |= {"bench_cost_p50_us": cost.percentile(50) / 1e3, "bench_cost_p99_us": cost.percentile(99) / 1e3}
     if st.clock is Clock.REALTIME:
         out["rt_no_command"] = float(st.no_command)
-    if st.clock is not Clock.VIRTUAL:
+    if not virtual:
         out["late_commands"] = float(st.late_commands)
     if st.ticks:
         out["bench_cpu_per_tick_us"] = st.cpu_ns / st.ticks / 1e3

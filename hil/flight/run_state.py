@@ -12,6 +12,7 @@ from hil.analysis.trace import Trace
 from hil.analysis.trace_stream import TraceStream
 from hil.config.rig import Rig
 from hil.config.scenario import Scenario
+from hil.flight.board_run import BoardRun
 from hil.flight.devices import DeviceSet
 from hil.flight.process import FlightProcess
 from hil.flight.run_setup import VirtualTimeRequired
@@ -54,6 +55,7 @@ class RunState:
     require_vt: bool = False
     vt_refused: VirtualTimeRequired | None = None
     steering: Steering | None = None  #: --live: the app's pause, step, speed and injects
+    board: BoardRun | None = None  #: a board run's loop, figures and criteria (hil/flight/board_run.py)
 
     def note(self, text: str) -> None:
         self.notes.append(text)

@@ -170,6 +170,11 @@ class ScenarioRunner:
         for key, bound in self.scenario.timing.items():
             field, _ = TIMING_BUDGETS[key]
             value = timing.get(field, math.nan)
+            if key in NEEDS_CALIBRATION and self.rig.flight.board:
+                ok = math.isfinite(value) and value <= bound
+                out.append(CriterionResult(f"timing: {field}", f"timing.{field}", "max", value, f"<= {bound:g}", ok,
+                                           _board_detail(value, bound, timing)))
+                continue
             if key in NEEDS_CALIBRATION and not self.rig.flight.cpu_scale_source.strip():
                 out.append(CriterionResult(f"timing: {field}", f"timing.{field}", "max", value, f"<= {bound:g}", True,
                                            "no calibration: the rig has no [flight] cpu_scale_source", judged=False))
@@ -178,6 +183,17 @@ class ScenarioRunner:
             detail = "" if math.isfinite(value) else f"no {field} figure in this run"
             out.append(CriterionResult(f"timing: {field}", f"timing.{field}", "max", value, f"<= {bound:g}", ok, detail))
         return out
+
+
+def _board_detail(value: float, bound: float, timing: dict[str, float]) -> str:
+    """A compute budget on a board run: where it was judged, and the margin left."""
+    mhz = timing.get("board_cclk_hz", math.nan) / 1e6
+    where = f"judged on the emulated LPC2148 at {mhz:g} MHz (target cycles)"
+    if not math.isfinite(value):
+        return f"{where}; no compute figure in this run"
+    margin = bound - value
+    word = "margin" if margin >= 0 else "over by"
+    return f"{where}; {word} {abs(margin):.0f} us ({abs(margin) / bound:.0%} of the budget)"
 
 
 def _set_payload(plant: Plant, ev: PayloadEvent, t_ns: int) -> None:

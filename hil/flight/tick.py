@@ -28,6 +28,7 @@ class Clock(enum.Enum):
     VIRTUAL = "virtual"  #: lockstep, flight code on sim time (clock shim)
     WALL = "wall"  #: lockstep fallback, flight code on the host clock
     REALTIME = "realtime"  #: realtime mode: everything on the host clock
+    BOARD = "board"  #: lockstep, the firmware on the emulated LPC2148: its time is the board's cycles
 
 
 class EndReason(enum.Enum):

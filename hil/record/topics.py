@@ -280,6 +280,22 @@ DEVICE_COUNTERS = _message(
     "hil.DeviceCounters", "Periodic snapshot of every device's counters.", Stamp.SIM,
     counters=_free("device or port.<name> -> {counter name -> count}"))
 
+_DT, _I, _B = "sim time of item i minus t_ns, ns", "integer", "boolean"
+BOARD_SPI = _message(  # board runs (hil/flight/board_record.py): the pins' traffic no port carries
+    "hil.BoardSpi", "SPI0's words and the ADC's /CS (P0.20) on the emulated LPC2148 (item i of each list: word or "
+    "change i).", Stamp.SIM, dt_ns=_list(_DT, _I), mosi=_list("word sent", _I, 0), miso=_list("word back", _I, 0),
+    cs_dt_ns=_list("/CS change i, " + _DT, _I), cs_level=_list("/CS after change i (true: high)", _B))
+BOARD_ESC = _message("hil.BoardEsc", "ESC inputs from the pins (PWM2, PWM5, MAT1.2, MAT1.3 for ESC 0-3): from t_ns + "
+                     "dt_ns[i] on, ESC esc[i] sees width_us[i] (0: no pulses).", Stamp.SIM, dt_ns=_list(_DT, _I),
+                     esc=_list("ESC 0..3", _I, 0), width_us=_list("pulse width, us", "number"))
+BOARD_CAPTURE = _message("hil.BoardCapture", "The PPM edges put on CAP1.0 (P0.10) and what Timer1's CR0 latched.",
+                         Stamp.SIM, dt_ns=_list("edge i, " + _DT, _I), level=_list("level after edge i", _B),
+                         cap_dt_ns=_list("capture i, " + _DT, _I), cap_value=_list("CR0 at capture i, us", _I, 0))
+BOARD_TICK = _message("hil.BoardTick", "The emulated LPC2148 over one tick, in CCLK cycles (overruns: since reset).",
+                      Stamp.SIM, ("cycles", "busy_cycles", "load_pct"), k=_int("tick", 0), cycles=_int("cycles", 0),
+                      busy_cycles=_int("not in PCON idle", 0), load_pct=_num("busy / cycles, %"), irqs=_int("IRQs", 0),
+                      irq_latency_max_cycles=_int("longest VIC request -> entry", 0),
+                      uart0_rx_overruns=_int("UART0 chars lost", 0), uart1_rx_overruns=_int("UART1 chars lost", 0))
 # ---- example payloads (docs and tests) ---------------------------------------------------
 _EX_TRUTH = {
     "p_N_m": [0.1, -0.2, -1.5], "v_N_mps": [0.0, 0.05, -0.1], "q_NB": [0.9990482, 0.0, 0.0, 0.0436194],
@@ -328,6 +344,14 @@ _TABLE: list[TopicSpec] = [
     TopicSpec("/hil/timing/tick", "hil.TickTiming", TICK_TIMING, "per-tick loop timing", "ns host monotonic; us",
               {"k": 400, "imu_emit_host_ns": 1_000_000_000, "esc_arrival_host_ns": 1_000_180_000,
                "latency_us": 180.0, "miss": False}, _P.TIMING, encoding=_PB, float32=True, rate="400 Hz"),
+    TopicSpec("/hil/board/spi", "hil.BoardSpi", BOARD_SPI, "board: SPI0 words, ADC /CS", "ns", {"dt_ns": [0, 8000],
+              "mosi": [6, 0], "miso": [255, 8], "cs_dt_ns": [-500], "cs_level": [False]}, encoding=_PB, rate="400 Hz"),
+    TopicSpec("/hil/board/esc", "hil.BoardEsc", BOARD_ESC, "board: ESC inputs from the pins", "us", {"dt_ns": [0], "esc": [2], "width_us": [1213.0]}, encoding=_PB, float32=True, rate="on a change"),
+    TopicSpec("/hil/board/capture", "hil.BoardCapture", BOARD_CAPTURE, "board: PPM edges on CAP1.0", "ns; us",
+              {"dt_ns": [0], "level": [True], "cap_dt_ns": [0], "cap_value": [1300]}, encoding=_PB, rate="PPM edges"),
+    TopicSpec("/hil/board/tick", "hil.BoardTick", BOARD_TICK, "board: load, interrupts, overruns", "CCLK cycles", {"k": 4,
+              "cycles": 150000, "busy_cycles": 58000, "load_pct": 38.7, "irqs": 14, "irq_latency_max_cycles": 41,
+              "uart0_rx_overruns": 0, "uart1_rx_overruns": 0}, encoding=_PB, float32=True, rate="400 Hz"),
     TopicSpec("/hil/events", "hil.Event", EVENT, "scenario, fault, run and device events", "as in detail",
               {"kind": "fault", "name": "imu_dropout", "detail": {"duration_s": 0.5}}),
     TopicSpec("/hil/verdict", "hil.Verdict", VERDICT, "end of run and criteria results", "signal units",

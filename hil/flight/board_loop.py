@@ -1,0 +1,254 @@
+"""The tick loop of a board run: the firmware on the emulated LPC2148 in lockstep, in cycles.
+
+The same tick as every lockstep run (docs/architecture.md), with the flight code's time in
+the board's cycles instead of a process's (docs/board.md, "Flying the firmware"):
+
+1. the firmware runs from t_{k-1} to t_k (150,000 cycles at 60 MHz): it receives sample
+   k-1 on UART0 as the XSENS sends it, reads the ADC over SPI, takes the PPM edges on its
+   capture pin, computes and sets its ESC outputs, sends telemetry on UART1;
+2. scenario actions and faults due by t_k; the ESC models take the pins' pulses up to t_k and
+   the plant steps to t_k; the analog front-end latches for t_k;
+3. the XSENS emits sample k: its bytes go onto UART0's RXD pin from t_k's cycle on;
+4. the telemetry link, slow devices, recording.
+
+A sample's **command** is the firmware's first ``hal_esc_write`` after the sample's first
+byte reached the pin and before the next sample's: its latency is sim time (cycles at the
+core's clock), its **compute** the busy cycles of the loop iteration that issued it
+(hil/flight/board_probes.py). A sample with no command before the next one is a miss
+(``barrier_misses``). Nothing here reads the host's clock except the bench's own cost
+figures: the flight is the same on any host, loaded or not.
+
+Boot starts the board from reset at ``-boot_timeout_s`` of sim time and runs it tick by tick
+until the firmware has configured the required devices; the first sample comes one tick
+later, and sim time is rebased there (the board's own clock runs on).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections import deque
+from dataclasses import dataclass
+
+from hil import clock
+from hil.analysis.timing_stream import LatencySample, StreamingStats
+from hil.board.errors import BoardError
+from hil.flight.board_devices import BoardDevices
+from hil.flight.board_probes import Iteration
+from hil.flight.tick import BootError, Clock, EndReason, SlackWork, TickGate, TickHook, TickStats
+
+#: ticks between two turns of the event loop (Ctrl-C, a test's stop, the live view)
+YIELD_EVERY = 8
+
+
+@dataclass(frozen=True)
+class _Sample:
+    k: int
+    t_ns: int
+    cycle: int  #: the cycle its first byte went onto the pin
+    emitted: bool
+    due: bool
+    t_emit_host_ns: int
+
+
+class BoardTickLoop:
+    """Boot and the ticks of a board run (see the module docstring); the surface the run uses
+    is :class:`~hil.flight.tickloop.TickLoop`'s."""
+
+    def __init__(self, devices: BoardDevices, *, tick_ns: int, duration_ns: int, boot_timeout_s: float,
+                 before_tick: TickHook | None = None, after_tick: TickHook | None = None) -> None:
+        self.devices = devices
+        self.wiring = devices.wiring
+        self.tick_ns = tick_ns
+        self.duration_ns = duration_ns
+        self.boot_timeout_s = boot_timeout_s
+        self.before_tick = before_tick
+        self.after_tick = after_tick
+        self.tick_gate: TickGate | None = None
+        self.slack_work: SlackWork | None = None
+        self.fallback_reason = ""
+        self.stats = TickStats(clock=Clock.BOARD)
+        self.t_ns = -int(boot_timeout_s * 1e9)
+        self.k = -1
+        self.fault: BoardError | None = None  #: what stopped the firmware, if it faulted
+        #: per-tick CPU load (busy cycles over the tick's cycles, %)
+        self.load_pct = StreamingStats()
+        self.busy_cycles = 0
+        self.run_cycles = 0
+        self.irq_latency = StreamingStats()  #: cycles from the VIC's request to the exception entry
+        #: the last tick's figures (the run's recording takes them in ``after_tick``)
+        self.tick_figures: dict[str, float] = {}
+        self._pending: deque[_Sample] = deque()
+        self._iterations: deque[Iteration] = deque()
+        self._mark = (0, 0)  #: (cycle, idle cycles) at the last tick's end
+
+    # -- boot -------------------------------------------------------------------------------------
+    async def boot(self) -> None:
+        """Run the firmware from reset until it has configured the required devices."""
+        devices, wiring = self.devices, self.wiring
+        boot_ns = int(self.boot_timeout_s * 1e9)
+        t = -boot_ns
+        wiring.offset_ns = boot_ns  # the board's reset is at sim time -boot_timeout_s
+        n = 0
+        while True:
+            self.t_ns = devices.t_ns = t
+            if not self._advance(t):
+                raise BootError(f"{self.exit_text()}; not configured: " + ", ".join(devices.unconfigured()))
+            devices.advance_boot(t)
+            if not devices.unconfigured():
+                break
+            t += self.tick_ns
+            if t >= 0:
+                missing = "; ".join(f"{name}: {why}" for name, why in devices.unconfigured().items())
+                raise BootError(f"not configured within {self.boot_timeout_s:g} s of sim time: {missing}")
+            n += 1
+            if n % YIELD_EVERY == 0:
+                await asyncio.sleep(0)
+        self.stats.boot_sim_ns = t + boot_ns
+        wiring.rebase(t + self.tick_ns, 0)
+        wiring.probes.restart()
+        self._mark = (wiring.cycles, wiring.core.idle_cycles)
+
+    def _advance(self, t_ns: int) -> bool:
+        """The firmware to ``t_ns``; False if it stopped (ended or faulted)."""
+        if self.fault is not None or self.wiring.stopped:
+            return False
+        try:
+            self.devices.advance_to(t_ns)
+        except BoardError as exc:
+            self.fault = exc
+            return False
+        return not self.wiring.stopped
+
+    @property
+    def samples_processed(self) -> int:
+        """Samples the firmware's loop processed (``loop_tick`` entries) since boot."""
+        return self.wiring.probes.samples
+
+    def exit_text(self) -> str:
+        """Why the firmware is not running, in words."""
+        if self.fault is not None:
+            return f"the firmware faulted: {self.fault}"
+        reason = self.wiring.core.semihost.exit_reason
+        return f"the firmware stopped (semihosting SYS_EXIT, reason {reason:#x})" if reason is not None else \
+            "the firmware runs"
+
+    # -- ticks ------------------------------------------------------------------------------------
+    async def run(self) -> EndReason:
+        """Run ticks until the duration, the firmware's end, or cancellation."""
+        stats = self.stats
+        stats.wall_start_ns = clock.monotonic_ns()
+        cpu_start = time.process_time_ns()
+        try:
+            return await self._run()
+        finally:
+            stats.wall_end_ns = clock.monotonic_ns()
+            stats.cpu_ns = time.process_time_ns() - cpu_start
+
+    async def _run(self) -> EndReason:
+        devices, stats, tick_ns = self.devices, self.stats, self.tick_ns
+        last = self.duration_ns // tick_ns
+        for k in range(last + 1):
+            t_ns = k * tick_ns
+            if self.tick_gate is not None:
+                await self.tick_gate()
+            elif k % YIELD_EVERY == 0:
+                await asyncio.sleep(0)
+            running = self._advance(t_ns)
+            self._tick_figures(k)
+            self._settle(final=not running)
+            if not running:
+                return EndReason.FLIGHT_EXITED
+            work_start = clock.monotonic_ns()
+            self.k, self.t_ns = k, t_ns
+            if self.before_tick is not None:
+                self.before_tick(k, t_ns)
+            devices.actuate_and_step(t_ns)
+            devices.latch_analog(t_ns)
+            emitted, due = devices.emit_imu(t_ns)
+            if emitted:
+                stats.samples += 1
+            if emitted or due:
+                self._pending.append(_Sample(k, t_ns, self.wiring.cycles, emitted, due, clock.monotonic_ns()))
+            after = clock.monotonic_ns()
+            devices.finish_tick(t_ns)
+            if self.after_tick is not None:
+                self.after_tick(k, t_ns)
+            stats.tick_cost_ns.append(after - work_start + clock.monotonic_ns() - after)
+            stats.ticks += 1
+        # the last sample's answer: the firmware runs one more tick (the plant does not)
+        if self._advance((last + 1) * tick_ns):
+            self._settle(final=True)
+        return EndReason.COMPLETED
+
+    def _tick_figures(self, k: int) -> None:
+        """The tick that just ran: its busy cycles over its cycles (the CPU load), its
+        interrupts' latencies."""
+        core = self.wiring.core
+        cycle, idle = self.wiring.cycles, core.idle_cycles
+        c0, i0 = self._mark
+        self._mark = (cycle, idle)
+        interrupts = self.wiring.probes.interrupts
+        worst = 0
+        for _, requested, entry in interrupts:
+            latency = entry - requested
+            self.irq_latency.append(latency)
+            worst = max(worst, latency)
+        figures = {"irqs": float(len(interrupts)), "irq_latency_max_cycles": float(worst)}
+        interrupts.clear()
+        if k > 0 and cycle > c0:
+            busy = (cycle - c0) - (idle - i0)
+            self.busy_cycles += busy
+            self.run_cycles += cycle - c0
+            load = 100.0 * busy / (cycle - c0)
+            self.load_pct.append(load)
+            figures |= {"cycles": float(cycle - c0), "busy_cycles": float(busy), "load_pct": load}
+        self.tick_figures = figures
+
+    def _settle(self, *, final: bool) -> None:
+        """Answer the pending samples whose window closed: sample k's is from its first byte to
+        the next sample's (or to now when the run ends). The answering iteration's busy cycles
+        are its compute; an iteration still running waits for the next settle."""
+        probes, stats, wiring = self.wiring.probes, self.stats, self.wiring
+        self._iterations.extend(probes.iterations)
+        probes.iterations.clear()
+        commands = probes.commands
+        now = wiring.cycles
+        while self._pending:
+            s = self._pending[0]
+            end = self._pending[1].cycle if len(self._pending) > 1 else (now if final else None)
+            if end is None:
+                break
+            cmd = next((c for c in commands if s.cycle <= c < end), None)
+            busy: int | None = None
+            if cmd is not None:
+                it = self._iteration_at(cmd)
+                running = probes.running_since()
+                if it is None and not final and running is not None and running <= cmd:
+                    break  # the iteration that answered is still running
+                busy = it.busy_cycles if it is not None else None  # None: it began before the count did
+            self._pending.popleft()
+            commands[:] = [c for c in commands if c >= end]
+            if not (s.emitted or (s.due and cmd is not None)):
+                continue
+            if cmd is None:
+                stats.barrier_misses += 1
+                self.devices.note_latency(LatencySample(s.t_ns, s.t_emit_host_ns, None))
+                continue
+            t_cmd = wiring.sim_ns(cmd)
+            busy_ns = None if busy is None else busy * 1_000_000_000 // wiring.bus.cclk_hz
+            stats.esc_commands += 1
+            stats.latencies_ns.append(t_cmd - s.t_ns)
+            if busy_ns is not None:
+                stats.fc_cpu_ns.append(busy_ns)
+            # no host instant: the command came in the board's cycles (host figures are not a board's)
+            self.devices.note_latency(LatencySample(s.t_ns, s.t_emit_host_ns, s.t_emit_host_ns, t_cmd, busy_ns))
+
+    def _iteration_at(self, cycle: int) -> Iteration | None:
+        """The finished loop iteration running at ``cycle`` (older ones are dropped)."""
+        its = self._iterations
+        while its and its[0].start_cycle + its[0].cycles <= cycle:
+            its.popleft()
+        if its and its[0].start_cycle <= cycle:
+            return its[0]
+        return None
