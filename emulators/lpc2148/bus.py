@@ -310,9 +310,13 @@ class Lpc2148Bus:
             if slot is not None:
                 if slot.frozen_at is not None:
                     raise RegisterAccessError(address, f"{slot.model.name} is powered off (PCONP bit {slot.pconp})")
-                value = slot.model.read(address & (APB_SLOT - 1), self.time.pclk_at(self.cycle) - slot.offset)
+                model = slot.model
+                value = model.read(address & (APB_SLOT - 1), self.time.pclk_at(self.cycle) - slot.offset)
                 slot.stale = True
                 self._model_line(slot)
+                if model.rescheduled:
+                    model.rescheduled = False
+                    self._rescheduled(slot)
             elif page == _SCB_PAGE:
                 value = self.scb.read(address & (APB_SLOT - 1), self.cycle)
             else:

@@ -50,7 +50,7 @@ class MatchCounter:
     :meth:`changed`."""
 
     __slots__ = ("n_match", "tc", "pc", "pr", "mr", "mcr", "enabled", "held_in_reset", "extra", "tick",
-                 "_interrupt", "_reset", "_stop", "_stop_at", "_reset_next", "_effect_at", "_irq_at")
+                 "_interrupt", "_reset", "_stop", "_masks_mcr", "_stop_at", "_reset_next", "_effect_at", "_irq_at")
 
     def __init__(self, n_match: int) -> None:
         self.n_match = n_match
@@ -66,6 +66,7 @@ class MatchCounter:
         #: the tick the state above belongs to
         self.tick = 0
         self._interrupt = self._reset = self._stop = 0
+        self._masks_mcr = 0  #: the MCR value the three masks above are of
         #: the absolute tick of the next match of a channel with MCR bits or in extra (_NEVER: none)
         self._stop_at = _NEVER
         #: the next count of TC is a reset (TC sits on a reset channel's match value)
@@ -86,6 +87,7 @@ class MatchCounter:
             if bits & 4:
                 stop |= 1 << c
         self._interrupt, self._reset, self._stop = interrupt, reset, stop
+        self._masks_mcr = self.mcr
         self._effect_at = self._irq_at = _UNKNOWN
         self._horizon()
 
@@ -102,10 +104,15 @@ class MatchCounter:
                 stop |= 1 << c
         return interrupt, reset, stop
 
+    def _masks(self) -> tuple[int, int, int]:
+        if self._masks_mcr != self.mcr:
+            return self.masks()
+        return self._interrupt, self._reset, self._stop
+
     @property
     def interrupt_mask(self) -> int:
-        """The channels with MCR's interrupt bit (as of the last :meth:`changed`)."""
-        return self._interrupt
+        """The channels with MCR's interrupt bit."""
+        return self._masks()[0]
 
     @property
     def running(self) -> bool:
@@ -167,8 +174,8 @@ class MatchCounter:
         if at == _UNKNOWN:
             at = None
             if self.running:
-                interrupt, _, stop = self.masks()
-                ahead = self.clone()._run(_FOREVER, 0, _no_handler, probe=True, effect=interrupt | stop | self.extra)
+                interrupt, _, stop = self._masks()
+                ahead = self._run(_FOREVER, 0, _no_handler, probe=True, effect=interrupt | stop | self.extra)
                 at = None if ahead is None else self.tick + ahead
             self._effect_at = at
         return None if at is None else at - self.tick
@@ -180,8 +187,8 @@ class MatchCounter:
         if at == _UNKNOWN:
             at = None
             if self.running:
-                interrupt = self.masks()[0]
-                ahead = self.clone()._run(_FOREVER, 0, _no_handler, probe=True, effect=interrupt)
+                interrupt = self._masks()[0]
+                ahead = self._run(_FOREVER, 0, _no_handler, probe=True, effect=interrupt)
                 at = None if ahead is None else self.tick + ahead
             self._irq_at = at
         return None if at is None else at - self.tick
@@ -195,32 +202,48 @@ class MatchCounter:
 
     def _run(self, n: int, start: int, on_match: MatchHandler, probe: bool, effect: int = 0) -> int | None:
         """Step ``n`` ticks from match to match. ``probe``: stop at the first match in
-        ``effect`` and return its tick from now (None: none comes, or a stop comes first)."""
-        interrupt, reset, stop = self.masks()
+        ``effect`` and return its tick from now (None: none comes, or a stop comes first),
+        leaving the counter as it was."""
+        interrupt, reset, stop = self._interrupt, self._reset, self._stop
+        if self._masks_mcr != self.mcr:
+            interrupt, reset, stop = self.masks()
         if probe:
             if not effect:
                 return None
             relevant = effect | reset | stop
         else:
             relevant = interrupt | stop | self.extra | reset
-        mr = self.mr
+        n_match = self.n_match
+        rel = [c for c in range(n_match) if relevant >> c & 1]
+        res = [c for c in range(n_match) if reset >> c & 1]
+        mr = self.mr  # read live: a handler may change it (the PWM's latch)
         pr = self.pr
         period = pr + 1
+        tc, pc = self.tc, self.pc
         t = 0
         resets = 0
         while True:
-            to_inc = ((pr - self.pc) & MASK32) + 1
+            to_inc = ((pr - pc) & MASK32) + 1
             if n - t < to_inc:
-                self.pc = (self.pc + (n - t)) & MASK32
+                if not probe:
+                    self.tc, self.pc = tc, (pc + (n - t)) & MASK32
                 return None
             t += to_inc
-            self.pc = 0
-            if self._at(reset, self.tc):
-                self.tc = 0
+            pc = 0
+            at_reset = False
+            for c in res:
+                if mr[c] == tc:
+                    at_reset = True
+                    break
+            if at_reset:
+                tc = 0
                 resets += 1
             else:
-                self.tc = (self.tc + 1) & MASK32
-            hit = self._hits(relevant, self.tc)
+                tc = (tc + 1) & MASK32
+            hit = 0
+            for c in rel:
+                if mr[c] == tc:
+                    hit |= 1 << c
             if hit:
                 if probe:
                     if hit & effect:
@@ -228,21 +251,28 @@ class MatchCounter:
                     if hit & stop:
                         return None  # the counter stops before any match in effect
                 else:
+                    self.tc, self.pc = tc, pc
                     on_match(hit, start + t)
                     if hit & stop:
                         self.enabled = False
                         return None
             if probe and resets >= 2:
                 return None  # one whole reset cycle without an effect: none ever comes
-            if self._at(reset, self.tc):
+            at_reset = False
+            for c in res:
+                if mr[c] == tc:
+                    at_reset = True
+                    break
+            if at_reset:
                 continue  # the next count is a reset: take it singly
             d = _WRAP
-            for c in range(self.n_match):
-                if relevant >> c & 1:
-                    d = min(d, ((mr[c] - self.tc) & MASK32) or _WRAP)
+            for c in rel:
+                gap = ((mr[c] - tc) & MASK32) or _WRAP
+                if gap < d:
+                    d = gap
             skip = min(d - 1, (n - t) // period)
             if skip > 0:
-                self.tc = (self.tc + skip) & MASK32
+                tc = (tc + skip) & MASK32
                 t += skip * period
 
     def _at(self, mask: int, tc: int) -> bool:

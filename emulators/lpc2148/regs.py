@@ -68,6 +68,9 @@ class RegisterFile:
 
     def __init__(self, base: int) -> None:
         self.base = base
+        #: set by a register read that may have brought the model's next event earlier (a
+        #: UART's RBR read starts a new character time-out); the bus clears it
+        self.rescheduled = False
 
     # -- time (models without a clock keep these) --------------------------------------
     def advance_to(self, tick: int) -> None:

@@ -170,6 +170,9 @@ class Uart(RegisterFile):
         self._trigger = 1
         self._rates()
         self._fifo_setup()
+        #: the earliest tick with something to process (a transmitter event, a character
+        #: complete); -1: not known. Register reads do not move it: only writes and bytes in.
+        self._work_at = -1.0
         # next_event() and next_irq_event(), kept until the state changes
         self._ne_valid = False
         self._ne: int | None = None
@@ -212,6 +215,21 @@ class Uart(RegisterFile):
 
     def _changed(self) -> None:
         self._ne_valid = self._nie_valid = False
+        self._work_at = -1.0
+
+    def _work(self) -> float:
+        """:attr:`_work_at`, computed."""
+        best = _INF
+        if self._tsr_until is not None:
+            best = self._tsr_until
+        if self._thre_int_at is not None and self._thre_int_at < best:
+            best = self._thre_int_at
+        if self.line.frames:
+            done = self.line.peek_done(self._bit, self._fmt)
+            if done is not None and done < best:
+                best = done
+        self._work_at = best
+        return best
 
     # -- the device's side ------------------------------------------------------------------
     def line_in(self, data: bytes, tick: float, bit_ticks: float, fmt: FrameFormat = FORMAT_8N1) -> None:
@@ -236,15 +254,15 @@ class Uart(RegisterFile):
     def advance_to(self, tick: int) -> None:
         if tick <= self.now:
             return  # everything due by then has been done
-        if self._ne_valid:
-            ne = self._ne
-            if ne is None or tick < ne:  # no character, transmitter event or time-out by then
-                self.now = tick
-                return
-        elif self._tsr_until is None and self._thre_int_at is None and not self.line.frames:
+        work = self._work_at
+        if work < 0:
+            work = self._work()
+        if tick < work:  # no character or transmitter event by then: only the time-out may pass
+            if self._ne_valid and self._ne is not None and tick >= self._ne:
+                self._ne_valid = self._nie_valid = False
             self.now = tick
             return
-        self._ne_valid = self._nie_valid = False
+        self._changed()
         while True:
             due = self._due_before(tick)
             if due is None:
@@ -273,15 +291,9 @@ class Uart(RegisterFile):
     def next_event(self) -> int | None:
         if self._ne_valid:
             return self._ne
-        best = _INF
-        if self._tsr_until is not None:
-            best = self._tsr_until
-        if self._thre_int_at is not None and self._thre_int_at < best:
-            best = self._thre_int_at
-        if self.line.frames:
-            done = self.line.peek_done(self._bit, self._fmt)
-            if done is not None and done < best:
-                best = done
+        best = self._work_at
+        if best < 0:
+            best = self._work()
         if self.rx and self.ier & 1 and not self._cti_active(self.now):
             cti = self._last_rx_activity + self._cti_ticks
             if cti < best:
@@ -417,6 +429,7 @@ class Uart(RegisterFile):
             self._rx_errs -= 1
         self._top_shown = False
         self._last_rx_activity = float(self.now)
+        self.rescheduled = True  # a new time-out from now: an event that may come before the others
         self._show_top()
         return value
 
@@ -521,7 +534,7 @@ class Uart(RegisterFile):
 
     def write(self, offset: int, value: int, tick: int) -> None:
         self.advance_to(tick)
-        self._ne_valid = self._nie_valid = False
+        self._changed()
         value &= 0xFFFF_FFFF
         dlab = self.lcr & 0x80
         if offset == _RBR:

@@ -175,11 +175,11 @@ class Core:
         bus = self.bus
         while s.cycles < target:
             if self.pc == stop_pc:
-                return
+                break
             bus.advance_to(s.cycles)
             if self._interrupt():
                 continue
-            nxt = bus.next_event_cycle()
+            nxt = bus.next_irq_cycle()  # only an interrupt changes what the core does next
             until = target if nxt is None or nxt > target else nxt
             if bus.sleeping:
                 self.idle_cycles += until - s.cycles
@@ -189,6 +189,7 @@ class Core:
             self._slice(stop_pc)
             # a slice that ended on a peripheral event: an interrupt it raises was requested then
             self._slice_event = int(s.deadline) if s.stop_reason == Stop.DEADLINE and s.deadline < target else None
+        bus.advance_to(s.cycles)  # the peripherals at the core's cycle: what they sent by then can be taken
 
     def _slice(self, stop_pc: int) -> None:
         s = self.counter.state
@@ -219,7 +220,7 @@ class Core:
     def _spin(self) -> None:
         """A branch to itself: its iterations up to the next event cost nothing to emulate."""
         s = self.counter.state
-        nxt = self.bus.next_event_cycle()
+        nxt = self.bus.next_irq_cycle()
         until = s.deadline if nxt is None else min(nxt, s.deadline)
         period = max(int(s.last_cost), 1)
         n = -(-(until - int(s.cycles)) // period)

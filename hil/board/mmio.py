@@ -57,6 +57,8 @@ class PeripheralBus(Protocol):
 
     def next_event_cycle(self) -> int | None: ...
 
+    def next_irq_cycle(self) -> int | None: ...
+
     @property
     def irq_request(self) -> bool: ...
 
@@ -140,7 +142,7 @@ class MmioBridge:
                     # a byte to send): the slice ends at the first block boundary after it. The
                     # pin connect block and GPIO schedule nothing (nor does the VIC, on the AHB).
                     if address >> SLOT_SHIFT not in _UNSCHEDULED_SLOTS:
-                        nxt = self.bus.next_event_cycle()
+                        nxt = self.bus.next_irq_cycle()
                         if nxt is not None and nxt < state.deadline:
                             state.deadline = nxt
                 self._after_access()

@@ -223,6 +223,7 @@ def bench_board(ticks: int) -> dict[str, Any] | None:
         tick()
     cpu = time.process_time() - t
     slices = core.slices - slices
+    bus.advance_to(core.cycles)  # what UART1 sent up to the core's cycle, wherever the run loop left the bus
     tx = bus.take_uart_tx(1)
     trace.add(core.cycles, core.idle_cycles, core.poll_cycles, core.spin_cycles, core.interrupts,
               [(x.value, x.start_cycle) for x in tx])
