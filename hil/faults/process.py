@@ -18,7 +18,13 @@ from __future__ import annotations
 import asyncio
 from typing import Any
 
-from hil.faults.base import Fault, Layer, NoParams, Timing
+from hil.faults.base import Fault, Layer, NoParams, Refused, Timing
+
+
+def _refuse_board(rig: Any) -> None:
+    if rig.flight.board:
+        raise Refused("kind", f"this rig flies the firmware on an emulated board ({rig.flight.board}): there is no "
+                              "flight-code process to kill or restart")
 
 
 class ProcessKill(Fault[NoParams]):
@@ -28,6 +34,10 @@ class ProcessKill(Fault[NoParams]):
     layer = Layer.PROCESS
     timing = Timing.INSTANT
     Params = NoParams
+
+    @classmethod
+    def check(cls, params: Any, rig: Any) -> None:
+        _refuse_board(rig)
 
     @classmethod
     def target_of(cls, params: Any) -> str:
@@ -49,6 +59,10 @@ class ProcessRestart(Fault[NoParams]):
     layer = Layer.PROCESS
     timing = Timing.BOUNDED
     Params = NoParams
+
+    @classmethod
+    def check(cls, params: Any, rig: Any) -> None:
+        _refuse_board(rig)
 
     @classmethod
     def target_of(cls, params: Any) -> str:

@@ -36,6 +36,10 @@ from hil.faults.framing import (
 )
 
 
+#: the ports of a board run (hil/flight/board_run.py): the UARTs' devices and the ground station
+BOARD_PORTS: tuple[str, ...] = ("imu", "telemetry", "ground")
+
+
 class WireParams(FaultParams):
     port: str = Field(description=f"the port: {', '.join(RIG_PORTS)}")
     direction: Direction = Field(
@@ -60,6 +64,10 @@ class WireFault(Fault[WP]):
     def check(cls, params: Any, rig: Any) -> None:
         if params.port not in RIG_PORTS:
             raise Refused("port", f"no port {params.port!r} on this rig (ports: {', '.join(RIG_PORTS)})")
+        if rig.flight.board and params.port not in BOARD_PORTS:
+            raise Refused("port", f"on this rig's board ({rig.flight.board}) the {params.port} device is wired at the "
+                                  f"MCU's pins, not through a byte stream: wire faults act on {', '.join(BOARD_PORTS)} "
+                                  "(the UARTs' bytes); the device and sensor faults act on it")
         for d in _directions(params.direction):
             if protocol_of(rig, params.port, d) is Protocol.NONE:
                 raise Refused("direction", f"the flight code sends nothing on {params.port!r}; use direction = 'tx'")

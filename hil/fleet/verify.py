@@ -27,6 +27,10 @@ from hil.record import iter_messages, message_counts, read_attachments, read_met
 #: The wires verify compares byte for byte: (port, direction), named from the bench's side.
 CONTROL_WIRES: tuple[tuple[str, str], ...] = (("imu", "tx"), ("adc", "tx"), ("adc", "rx"), ("rc", "tx"), ("esc", "rx"))
 TRUTH_TOPIC = "/sim/truth"
+#: a board run's control wires: the UARTs' bytes both ways, and the pins' traffic message by
+#: message (stream name -> topic): SPI words, ESC inputs, PPM edges and captures
+BOARD_WIRES: tuple[tuple[str, str], ...] = (("imu", "tx"), ("imu", "rx"), ("telemetry", "rx"))
+BOARD_TOPICS: dict[str, str] = {"spi": "/hil/board/spi", "esc": "/hil/board/esc", "capture": "/hil/board/capture"}
 
 
 @dataclass(frozen=True)
@@ -45,7 +49,7 @@ class Divergence:
 
     def describe(self) -> str:
         at = "" if self.t_ns is None else f" at t = {self.t_ns / 1e9:.6f} s"
-        unit = "message" if self.stream == "truth" else "byte"
+        unit = "byte" if "/" in self.stream else "message"
         return f"{self.stream}: first divergence at {unit} {self.offset}{at}: {self.detail}"
 
 
@@ -80,7 +84,7 @@ class VerifyResult:
             lines.append(f"  first: {self.first.describe()}")
         bad = {d.stream: d for d in self.divergences}
         for stream, n in self.compared.items():
-            unit = "messages" if stream == "truth" else "bytes"
+            unit = "bytes" if "/" in stream else "messages"
             lines.append(f"  {stream:<8} {n:>9} {unit}  " + (bad[stream].describe() if stream in bad else "identical"))
         lines += [f"  note: {n}" for n in self.notes]
         return "\n".join(lines)
@@ -141,15 +145,20 @@ def _first_field_diff(a: Any, b: Any, path: str = "") -> str | None:
 
 def compare_truth(recorded: Path, rerun: Path) -> tuple[int, Divergence | None]:
     """Compare ``/sim/truth`` message by message: (recorded message count, first divergence)."""
-    n = message_counts(recorded).get(TRUTH_TOPIC, 0)
-    pairs = itertools.zip_longest(iter_messages(recorded, [TRUTH_TOPIC]), iter_messages(rerun, [TRUTH_TOPIC]))
+    return compare_messages(recorded, rerun, TRUTH_TOPIC, "truth")
+
+
+def compare_messages(recorded: Path, rerun: Path, topic: str, stream: str) -> tuple[int, Divergence | None]:
+    """Compare ``topic`` message by message: (recorded message count, first divergence)."""
+    n = message_counts(recorded).get(topic, 0)
+    pairs = itertools.zip_longest(iter_messages(recorded, [topic]), iter_messages(rerun, [topic]))
     for i, (a, b) in enumerate(pairs):
         if a is None or b is None:
             which, t_ns = ("recording", b[2].get("t_ns")) if a is None else ("re-run", a[2].get("t_ns"))
-            return n, Divergence("truth", i, t_ns, f"the {which} has no more truth messages")
+            return n, Divergence(stream, i, t_ns, f"the {which} has no more {stream} messages")
         d = _first_field_diff(a[2], b[2])
         if d is not None:
-            return n, Divergence("truth", i, a[2].get("t_ns"), d)
+            return n, Divergence(stream, i, a[2].get("t_ns"), d)
     return n, None
 
 
@@ -174,6 +183,15 @@ def _materialise(log: Path, run: dict[str, str], work: Path) -> tuple[Path, Path
     rig_bytes = att[rig_name][1]
     if flight.get("config") != flight_name:  # make the rig point at the extracted template
         flight["config"] = flight_name
+        rig_data["flight"] = flight
+        rig_bytes = tomli_w.dumps(rig_data).encode()
+    if flight.get("board"):  # the firmware flown, as recorded (not today's build)
+        from hil.flight.board_run import FIRMWARE_ATTACHMENT
+
+        if FIRMWARE_ATTACHMENT not in att:
+            raise ReplayError(f"{log}: a board run without its {FIRMWARE_ATTACHMENT!r} attachment")
+        (work / FIRMWARE_ATTACHMENT).write_bytes(att[FIRMWARE_ATTACHMENT][1])
+        flight["firmware"] = FIRMWARE_ATTACHMENT
         rig_data["flight"] = flight
         rig_bytes = tomli_w.dumps(rig_data).encode()
     (work / rig_name).write_bytes(rig_bytes)
@@ -224,9 +242,15 @@ def verify(log: Path, out_dir: Path) -> VerifyResult:
         return VerifyResult(log, None, False, recorded_end, rerun_end, {}, (), (*notes, f"the re-run wrote no log: {result.message}"))
     compared: dict[str, int] = {}
     divergences: list[Divergence] = []
-    for port, direction in CONTROL_WIRES:
+    board = bool(run.get("board"))
+    for port, direction in BOARD_WIRES if board else CONTROL_WIRES:
         n, d = compare_wire(log, result.log_path, port, direction)
         compared[f"{port}/{direction}"] = n
+        if d is not None:
+            divergences.append(d)
+    for stream, topic in (BOARD_TOPICS if board else {}).items():
+        n, d = compare_messages(log, result.log_path, topic, stream)
+        compared[stream] = n
         if d is not None:
             divergences.append(d)
     n, d = compare_truth(log, result.log_path)
@@ -244,4 +268,5 @@ def verify(log: Path, out_dir: Path) -> VerifyResult:
     return VerifyResult(log, result.log_path, ok, recorded_end, rerun_end, compared, tuple(divergences), tuple(notes))
 
 
-__all__ = ["CONTROL_WIRES", "TRUTH_TOPIC", "Divergence", "VerifyResult", "compare_truth", "compare_wire", "verify"]
+__all__ = ["BOARD_TOPICS", "BOARD_WIRES", "CONTROL_WIRES", "TRUTH_TOPIC", "Divergence", "VerifyResult", "compare_messages",
+           "compare_truth", "compare_wire", "verify"]

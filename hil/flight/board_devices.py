@@ -21,6 +21,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from emulators.base import DeviceEvent
+from emulators.xsens.events import SampleSent
 from hil.analysis.timing_stream import LatencySample, LatencyStats
 from hil.flight.board_wiring import BoardWiring
 from hil.flight.devices import DeviceSet
@@ -35,6 +37,12 @@ class BoardDevices:
         self.devices = devices
         self.wiring = wiring
         self.on_esc_command: Callable[[int, int], None] = lambda t_host_ns, t_ns: None
+        self.sample_counter = -1  #: the packet counter of the last sample the XSENS sent
+        devices.event_sinks.append(self._on_event)
+
+    def _on_event(self, port: str, ev: DeviceEvent) -> None:
+        if isinstance(ev, SampleSent) and ev.packet_counter is not None:
+            self.sample_counter = ev.packet_counter
 
     @property
     def t_ns(self) -> int:

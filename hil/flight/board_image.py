@@ -27,19 +27,27 @@ from hil.flight.firmware_build import FIRMWARE_DIR, FirmwareBuildError, build_fi
 from hil.flight.run_files import deep_merge
 
 CONFIG_SYMBOL = "fw_flight_config_text"
-ARM_ELF = FIRMWARE_DIR / "build" / "arm" / "fc.elf"
+
+
+def firmware_tree() -> Path:
+    """The firmware/ tree ``firmware = "arm"`` builds: the one in the working directory (where
+    hil runs; a mutant's copy under ``hil mutate``), else the bench's own."""
+    here = Path.cwd() / "firmware"
+    return here if (here / "Makefile").is_file() else FIRMWARE_DIR
 
 
 def firmware_elf(rig: Rig) -> Path:
-    """The ELF the rig's board flies: firmware/'s ARM build (``make arm`` first: a no-op when
-    it is up to date) or the rig's file. :class:`ConfigError` when the build fails."""
+    """The ELF the rig's board flies: the ARM build of :func:`firmware_tree` (``make arm`` first,
+    a no-op when it is up to date, its design headers and compiled-in config from the rig's
+    ``[flight] config``), or the rig's file. :class:`ConfigError` when the build fails."""
     if not rig.flight.firmware_target:
         return rig.firmware_path
+    tree = firmware_tree()
     try:
-        build_firmware("arm")
+        build_firmware("arm", firmware_dir=tree, make_vars={"FLIGHT_CONFIG": str(rig.flight_config_path)})
     except FirmwareBuildError as exc:
         raise ConfigError(f"{rig.path}: [flight] firmware = \"arm\": the build failed: {exc}") from None
-    return ARM_ELF
+    return tree / "build" / "arm" / "fc.elf"
 
 
 def sha256(path: Path) -> str:

@@ -34,7 +34,7 @@ from hil import clock
 from hil.analysis.timing_stream import LatencySample, StreamingStats
 from hil.board.errors import BoardError
 from hil.flight.board_devices import BoardDevices
-from hil.flight.board_probes import Iteration
+from hil.flight.board_probes import Answer, Iteration
 from hil.flight.tick import BootError, Clock, EndReason, SlackWork, TickGate, TickHook, TickStats
 
 #: ticks between two turns of the event loop (Ctrl-C, a test's stop, the live view)
@@ -49,6 +49,7 @@ class _Sample:
     emitted: bool
     due: bool
     t_emit_host_ns: int
+    counter: int  #: the XSENS packet counter it carries (-1: not emitted)
 
 
 class BoardTickLoop:
@@ -80,6 +81,8 @@ class BoardTickLoop:
         self.tick_figures: dict[str, float] = {}
         self._pending: deque[_Sample] = deque()
         self._iterations: deque[Iteration] = deque()
+        self._answers: deque[Answer] = deque()
+        self._commands: deque[int] = deque()
         self._mark = (0, 0)  #: (cycle, idle cycles) at the last tick's end
 
     # -- boot -------------------------------------------------------------------------------------
@@ -169,7 +172,8 @@ class BoardTickLoop:
             if emitted:
                 stats.samples += 1
             if emitted or due:
-                self._pending.append(_Sample(k, t_ns, self.wiring.cycles, emitted, due, clock.monotonic_ns()))
+                self._pending.append(_Sample(k, t_ns, self.wiring.cycles, emitted, due, clock.monotonic_ns(),
+                                             devices.sample_counter if emitted else -1))
             after = clock.monotonic_ns()
             devices.finish_tick(t_ns)
             if self.after_tick is not None:
@@ -206,49 +210,80 @@ class BoardTickLoop:
         self.tick_figures = figures
 
     def _settle(self, *, final: bool) -> None:
-        """Answer the pending samples whose window closed: sample k's is from its first byte to
-        the next sample's (or to now when the run ends). The answering iteration's busy cycles
-        are its compute; an iteration still running waits for the next settle."""
-        probes, stats, wiring = self.wiring.probes, self.stats, self.wiring
+        """Match the samples sent to the loop's answers, in order: sample k is answered by the
+        iteration whose ``loop_tick`` processed the sample with k's packet counter, its command
+        the first ``hal_esc_write`` of that iteration. A sample not answered before a later one
+        was, or by the run's end, was dropped; an answer after the next sample's first byte is a
+        miss. An answer whose iteration is still running waits for the next settle."""
+        probes = self.wiring.probes
         self._iterations.extend(probes.iterations)
+        self._answers.extend(probes.answers)
+        self._commands.extend(probes.commands)
+        self.stats.esc_commands += len(probes.commands)
         probes.iterations.clear()
-        commands = probes.commands
-        now = wiring.cycles
-        while self._pending:
-            s = self._pending[0]
-            end = self._pending[1].cycle if len(self._pending) > 1 else (now if final else None)
-            if end is None:
+        probes.answers.clear()
+        probes.commands.clear()
+        pending, answers = self._pending, self._answers
+        while pending:
+            s = pending[0]
+            if not s.emitted:  # a sample a fault silenced: nothing to answer
+                pending.popleft()
+                continue
+            while answers and _before(answers[0].counter, s.counter):
+                answers.popleft()  # an older sample's (from before the count, or a repeat)
+            if answers and answers[0].counter == s.counter:
+                got = self._answer(answers[0], answers[1].tick_cycle if len(answers) > 1 else None, final)
+                if got is None:
+                    break  # its iteration is still running
+                answers.popleft()
+                pending.popleft()
+                self._record(s, *got)
+            elif answers or final:  # a later sample answered first, or the run ended
+                pending.popleft()
+                self._record(s, None, None)
+            else:
                 break
-            cmd = next((c for c in commands if s.cycle <= c < end), None)
-            busy: int | None = None
-            if cmd is not None:
-                it = self._iteration_at(cmd)
-                running = probes.running_since()
-                if it is None and not final and running is not None and running <= cmd:
-                    break  # the iteration that answered is still running
-                busy = it.busy_cycles if it is not None else None  # None: it began before the count did
-            self._pending.popleft()
-            commands[:] = [c for c in commands if c >= end]
-            if not (s.emitted or (s.due and cmd is not None)):
-                continue
-            if cmd is None:
-                stats.barrier_misses += 1
-                self.devices.note_latency(LatencySample(s.t_ns, s.t_emit_host_ns, None))
-                continue
-            t_cmd = wiring.sim_ns(cmd)
-            busy_ns = None if busy is None else busy * 1_000_000_000 // wiring.bus.cclk_hz
-            stats.esc_commands += 1
-            stats.latencies_ns.append(t_cmd - s.t_ns)
-            if busy_ns is not None:
-                stats.fc_cpu_ns.append(busy_ns)
-            # no host instant: the command came in the board's cycles (host figures are not a board's)
-            self.devices.note_latency(LatencySample(s.t_ns, s.t_emit_host_ns, s.t_emit_host_ns, t_cmd, busy_ns))
 
-    def _iteration_at(self, cycle: int) -> Iteration | None:
-        """The finished loop iteration running at ``cycle`` (older ones are dropped)."""
+    def _answer(self, a: Answer, next_tick: int | None, final: bool) -> tuple[int | None, int | None] | None:
+        """(command cycle, busy cycles of its iteration) of answer ``a``; None while its
+        iteration runs on."""
         its = self._iterations
-        while its and its[0].start_cycle + its[0].cycles <= cycle:
+        while its and its[0].start_cycle + its[0].cycles <= a.tick_cycle:
             its.popleft()
-        if its and its[0].start_cycle <= cycle:
-            return its[0]
-        return None
+        it = its[0] if its and its[0].start_cycle <= a.tick_cycle else None
+        if it is not None:
+            end: int | None = it.start_cycle + it.cycles
+        else:  # still running, or it began before the count did (the first sample after boot)
+            running = self.wiring.probes.running_since()
+            if not final and running is not None and running <= a.tick_cycle:
+                return None
+            end = next_tick if next_tick is not None else running
+        commands = self._commands
+        while commands and commands[0] < a.tick_cycle:
+            commands.popleft()
+        cmd = commands[0] if commands and (end is None or commands[0] < end) else None
+        return cmd, (it.busy_cycles if it is not None else None)
+
+    def _record(self, s: _Sample, cmd: int | None, busy: int | None) -> None:
+        """Sample ``s``'s figures: answered by the command at cycle ``cmd`` (None: never)."""
+        stats, wiring = self.stats, self.wiring
+        if cmd is None:
+            stats.barrier_misses += 1
+            self.devices.note_latency(LatencySample(s.t_ns, s.t_emit_host_ns, None))
+            return
+        t_cmd = wiring.sim_ns(cmd)
+        busy_ns = None if busy is None else busy * 1_000_000_000 // wiring.bus.cclk_hz
+        stats.latencies_ns.append(t_cmd - s.t_ns)
+        if busy_ns is not None:
+            stats.fc_cpu_ns.append(busy_ns)
+        late = bool(self._pending) and cmd >= self._pending[0].cycle
+        if late:
+            stats.barrier_misses += 1
+        # a board's answer has no host instant (None marks the late one as a miss in the log)
+        self.devices.note_latency(LatencySample(s.t_ns, s.t_emit_host_ns, None if late else s.t_emit_host_ns,
+                                                t_cmd, busy_ns))
+
+
+def _before(a: int, b: int) -> bool:
+    """Packet counter ``a`` comes before ``b`` (16 bits, wrapping)."""
+    return 0 < (b - a) & 0xFFFF < 0x8000

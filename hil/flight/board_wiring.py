@@ -61,7 +61,7 @@ class BoardWiring:
     def __init__(self, image: FirmwareImage, mcp: Mcp3204, on_line: Callable[[str], None]) -> None:
         self.image = image
         self.bus = Lpc2148()
-        self.core = Core(self.bus, Semihost(on_line=on_line))
+        self.core = Core(self.bus, Semihost(on_line=on_line))  # type: ignore[arg-type]  # scb: see mmio.SystemControlView
         self.core.load(image)
         self.core.reset(image.entry)
         self.probes = FirmwareProbes(self.core, image)

@@ -31,29 +31,32 @@ class FirmwareBuildError(Exception):
     """The build could not start or failed; the message says what to do."""
 
 
-def build_firmware(target: str, *, timeout_s: float = BUILD_TIMEOUT_S) -> str:
-    """Run ``make -C firmware <target>``; returns its output (the ARM size report), or raises
-    :class:`FirmwareBuildError` with make's output."""
+def build_firmware(target: str, *, timeout_s: float = BUILD_TIMEOUT_S, firmware_dir: Path = FIRMWARE_DIR,
+                   make_vars: dict[str, str] | None = None) -> str:
+    """Run ``make -C firmware <target>`` (``firmware_dir``: another copy of the tree, such as a
+    mutant's; ``make_vars``: ``NAME=value`` arguments, e.g. ``FLIGHT_CONFIG``); returns its
+    output (the ARM size report), or raises :class:`FirmwareBuildError` with make's output."""
     if target not in TARGETS:
         raise FirmwareBuildError(f"unknown target {target!r} (one of {', '.join(TARGETS)})")
-    if not (FIRMWARE_DIR / "Makefile").is_file():
-        raise FirmwareBuildError(f"{FIRMWARE_DIR}: no firmware Makefile (a checkout without firmware/?)")
+    if not (firmware_dir / "Makefile").is_file():
+        raise FirmwareBuildError(f"{firmware_dir}: no firmware Makefile (a checkout without firmware/?)")
     if shutil.which("make") is None:
         raise FirmwareBuildError("make is not installed (Debian: apt install make)")
     if target == "arm" and shutil.which("arm-none-eabi-gcc") is None:
         raise FirmwareBuildError("arm-none-eabi-gcc is not installed: run firmware/install-toolchain.sh")
     env = {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
-    lock_path = FIRMWARE_DIR / "build" / ".lock"  # one make at a time in firmware/build (the tests take it too)
+    lock_path = firmware_dir / "build" / ".lock"  # one make at a time in firmware/build (the tests take it too)
     lock_path.parent.mkdir(parents=True, exist_ok=True)
     try:
         with open(lock_path, "w") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
-            proc = subprocess.run(["make", "-s", "-C", str(FIRMWARE_DIR), target], capture_output=True, text=True,
-                                  timeout=timeout_s, env=env)
+            args = [f"{k}={v}" for k, v in (make_vars or {}).items()]
+            proc = subprocess.run(["make", "-s", "-C", str(firmware_dir), target, *args], capture_output=True,
+                                  text=True, timeout=timeout_s, env=env)
     except subprocess.TimeoutExpired:
-        raise FirmwareBuildError(f"make -C {FIRMWARE_DIR} {target} took longer than {timeout_s:g} s") from None
+        raise FirmwareBuildError(f"make -C {firmware_dir} {target} took longer than {timeout_s:g} s") from None
     if proc.returncode != 0:
-        raise FirmwareBuildError(f"make -C {FIRMWARE_DIR} {target} failed (exit {proc.returncode}):\n"
+        raise FirmwareBuildError(f"make -C {firmware_dir} {target} failed (exit {proc.returncode}):\n"
                                  f"{(proc.stdout + proc.stderr).strip()}")
     return proc.stdout + proc.stderr
 
