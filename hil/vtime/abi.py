@@ -113,7 +113,7 @@ class Slot(ctypes.Structure):
         ("spin_yields", ctypes.c_uint32),
         ("clock_reads", ctypes.c_uint32),
         ("wait_kind", ctypes.c_uint32),
-        ("reserved32", ctypes.c_uint32),
+        ("wait_pid", ctypes.c_int32),  #: a CHILD wait's target, as wait4 takes it
         ("reserved", ctypes.c_uint64 * 2),
     ]
 
@@ -143,7 +143,7 @@ SLOT_DEADLINE, SLOT_CPU, SLOT_BLOCKS = (SLOT_INDEX[f] for f in ("deadline_ns", "
 SLOT_SEEN_EPOCH, SLOT_NKEYS = SLOT_INDEX["seen_epoch"], SLOT_INDEX["nkeys"]
 SLOT_KEY_RDEV, SLOT_KEY_EVENTS = SLOT_INDEX["key_rdev"], SLOT_INDEX["key_events"]
 SLOT_SPIN_YIELDS, SLOT_CLOCK_READS = SLOT_INDEX["spin_yields"], SLOT_INDEX["clock_reads"]
-SLOT_WAIT_KIND = SLOT_INDEX["wait_kind"]
+SLOT_WAIT_KIND, SLOT_WAIT_PID = SLOT_INDEX["wait_kind"], SLOT_INDEX["wait_pid"]
 
 def rdev_key(st_rdev: int) -> int:
     """A character device number as the shim publishes it: ``(major << 20) | minor``."""
@@ -161,4 +161,5 @@ def expected_layout() -> tuple[int, ...]:
         Header.calls.offset,
         Slot.seq.offset, Slot.deadline_ns.offset, Slot.cpu_ns.offset, Slot.nkeys.offset,
         Slot.key_rdev.offset, Slot.key_events.offset, Slot.clock_reads.offset, Slot.wait_kind.offset,
+        Slot.wait_pid.offset,
     )  # fmt: skip

@@ -53,10 +53,12 @@ class ThreadView:
     #: how a blocked thread waits (``abi.Wait``): on fds and its wake FIFO (FD), or in a wait
     #: another thread or process ends (FUTEX, CHILD, READ: the kernel must have it asleep)
     wait_kind: int = 0
+    #: a CHILD wait's target as wait4 takes it: -1 any child, >0 that pid, 0 its own group, < -1 a group
+    wait_pid: int = -1
 
     def __init__(self, index: int, tid: int, pid: int, seq: int, blocked: bool, deadline_ns: int | None, cpu_ns: int,
                  seen_epoch: int, keys: tuple[tuple[int, int], ...] | None, spin_yields: int,
-                 wait_kind: int = 0) -> None:
+                 wait_kind: int = 0, wait_pid: int = -1) -> None:
         # written out: compiled, unlike the one @dataclass generates (tests/unit/test_compiled_records.py)
         object.__setattr__(self, "index", index)
         object.__setattr__(self, "tid", tid)
@@ -69,6 +71,7 @@ class ThreadView:
         object.__setattr__(self, "keys", keys)
         object.__setattr__(self, "spin_yields", spin_yields)
         object.__setattr__(self, "wait_kind", wait_kind)
+        object.__setattr__(self, "wait_pid", wait_pid)
 
     @property
     def confirmed(self) -> bool:
@@ -93,6 +96,7 @@ _CPU: Final = abi.SLOT_CPU
 _SEEN_EPOCH: Final = abi.SLOT_SEEN_EPOCH
 _SPIN_YIELDS: Final = abi.SLOT_SPIN_YIELDS
 _WAIT_KIND: Final = abi.SLOT_WAIT_KIND
+_WAIT_PID: Final = abi.SLOT_WAIT_PID
 _KEYS_UNKNOWN: Final = int(abi.KEYS_UNKNOWN)
 _MAX_KEYS: Final = int(abi.MAX_KEYS)
 _NO_DEADLINE: Final = int(abi.NO_DEADLINE)
@@ -113,7 +117,7 @@ def _view(index: int, raw: tuple[int, ...]) -> ThreadView:
         index, raw[_TID], raw[_PID], seq,
         bool(seq & 1) and raw[_STATE] == _BLOCKED,
         None if deadline == _NO_DEADLINE else deadline,
-        raw[_CPU], raw[_SEEN_EPOCH], keys, raw[_SPIN_YIELDS], raw[_WAIT_KIND],
+        raw[_CPU], raw[_SEEN_EPOCH], keys, raw[_SPIN_YIELDS], raw[_WAIT_KIND], raw[_WAIT_PID],
     )
 
 

@@ -118,7 +118,8 @@ struct hvt_slot {
     uint32_t spin_yields;
     uint32_t clock_reads;      /* since the last blocking call (busy-wait detection) */
     uint32_t wait_kind;        /* enum hvt_wait, valid while BLOCKED */
-    uint32_t reserved32;
+    int32_t wait_pid;          /* a CHILD wait's target, as wait4 takes it: -1 any child, >0 that
+                                * pid, 0 its own process group, < -1 the group -wait_pid */
     uint64_t reserved[2];
 };
 

@@ -37,7 +37,7 @@ __all__ = ["HiddenWait", "INLINE_BUDGET_S", "INLINE_WAIT_S", "SETTLE_FIRST_S", "
            "ShimLost", "Stall", "VirtualClock", "resolve_pending", "shim_mapped"]
 
 POLLIN, POLLPRI, POLLOUT = select.POLLIN, select.POLLPRI, select.POLLOUT
-#: re-check pauses (wall s) while a futex waiter is on its way to sleep
+#: re-check pauses (wall s) while a waiter is on its way to sleep, or a process without slots lives
 SETTLE_FIRST_S = 0.0001
 SETTLE_MAX_S = 0.005
 #: idle waits in lockstep, each a few hundred us, are made without a turn of the event loop
@@ -193,9 +193,7 @@ class VirtualClock:
 
     def cpu_ns(self) -> int:
         """Host CPU ns the flight code's tree used since the last call (as each thread last blocked)."""
-        last = self._cpu_last
-        now: dict[int, tuple[int, int]] = {}
-        delta = 0
+        last, now, delta = self._cpu_last, {}, 0
         for t in self._threads():
             before = last.get(t.index)
             delta += t.cpu_ns - (before[1] if before is not None and before[0] == t.tid else 0)
@@ -282,8 +280,9 @@ class VirtualClock:
             return False  # it is waking up (or about to) on bytes already there
         if not all(self.ctl.seq(t.index) == t.seq for t in threads):
             return False
-        if self._tree is not None and not self._tree.all_in_slots(threads):
-            return False  # a process of the tree runs or waits where the shim cannot see (last: /proc reads)
+        if self._tree is not None and not self._tree.all_in_slots(threads):  # last: /proc reads
+            self._settling = True  # a process the shim cannot see: nothing says when it exits
+            return False
         if not any(t.confirmed and t.deadline_ns is not None for t in threads):
             # a timed futex wait ends on the host clock without telling anyone: never cached
             self._idle_at, self._snapshot = (self._events, self._written.count), threads

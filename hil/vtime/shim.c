@@ -71,6 +71,7 @@ EXPORT const uint32_t hvt_abi_layout[] = {
     offsetof(struct hvt_slot, cpu_ns), offsetof(struct hvt_slot, nkeys),
     offsetof(struct hvt_slot, key_rdev), offsetof(struct hvt_slot, key_events),
     offsetof(struct hvt_slot, clock_reads), offsetof(struct hvt_slot, wait_kind),
+    offsetof(struct hvt_slot, wait_pid),
 };
 
 /* ---- the real functions --------------------------------------------------------------- */
@@ -925,11 +926,12 @@ EXPORT int pthread_join(pthread_t thread, void **retval) {
  */
 
 
-static struct hvt_slot *other_enter(const struct pollfd *fd, uint32_t kind) {
+static struct hvt_slot *other_enter(const struct pollfd *fd, uint32_t kind, pid_t target) {
     struct hvt_slot *s = my_slot();
     if (!s || free_running())
         return NULL;
     count(kind == HVT_WAIT_CHILD ? HVT_CALL_WAIT_CHILD : HVT_CALL_READ_BLOCK);
+    s->wait_pid = target; /* published with the state, below */
     publish_blocked(s, fd, fd ? 1 : 0, HVT_NO_DEADLINE, load_u32(&H->epoch), 0, kind);
     notify_bench();
     return s;
@@ -951,7 +953,7 @@ static pid_t child_wait(pid_t pid, int *status, int options, struct rusage *ru) 
     pid_t r = real_wait4(pid, status, options | WNOHANG, ru);
     if (r != 0)
         return r; /* a child had changed state already, or none can (ECHILD) */
-    struct hvt_slot *s = other_enter(NULL, HVT_WAIT_CHILD);
+    struct hvt_slot *s = other_enter(NULL, HVT_WAIT_CHILD, pid);
     r = real_wait4(pid, status, options, ru);
     other_leave(s);
     return r;
@@ -975,7 +977,9 @@ EXPORT int waitid(idtype_t idtype, id_t id, siginfo_t *info, int options) {
     int r = real_waitid(idtype, id, info, options | WNOHANG);
     if (r != 0 || info->si_pid != 0)
         return r;
-    struct hvt_slot *s = other_enter(NULL, HVT_WAIT_CHILD);
+    /* the same target in wait4's terms (P_PIDFD: any child, the bench errs on waiting) */
+    pid_t target = idtype == P_PID ? (pid_t)id : idtype == P_PGID ? (id ? -(pid_t)id : 0) : -1;
+    struct hvt_slot *s = other_enter(NULL, HVT_WAIT_CHILD, target);
     r = real_waitid(idtype, id, info, options);
     other_leave(s);
     return r;
@@ -998,7 +1002,7 @@ static struct hvt_slot *read_enter(int fd) {
     struct termios tio;
     if (tcgetattr(fd, &tio) == 0 && !(tio.c_lflag & ICANON) && tio.c_cc[VTIME] != 0)
         return NULL;
-    return other_enter(&p, HVT_WAIT_READ);
+    return other_enter(&p, HVT_WAIT_READ, 0);
 }
 
 EXPORT ssize_t read(int fd, void *buf, size_t n) {

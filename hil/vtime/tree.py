@@ -20,9 +20,11 @@ import platform
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
+from hil.vtime.abi import Wait
 from hil.vtime.control import ThreadView
 
 PR_SET_CHILD_SUBREAPER = 36
+_CHILD = int(Wait.CHILD)
 
 #: system call numbers of the calls a process of the tree is commonly found blocked in, by
 #: machine (the first field of /proc/<pid>/syscall): the stall message names them
@@ -203,10 +205,12 @@ class ProcessTree:
                         queue.append(child)
         return list(self.members)
 
-    def all_in_slots(self, threads: Iterable[ThreadView]) -> bool:
+    def all_in_slots(self, threads: list[ThreadView]) -> bool:
         """Every live member has slots among ``threads``: none runs or waits where the clock
-        shim cannot see (a launcher's child between fork and exec, a static program). Zombies
-        do not count: they never run again."""
+        shim cannot see (a launcher's child between fork and exec, a static program). A zombie
+        does not count (it never runs again), unless a waiter of the tree is about to reap it:
+        the kernel marks a child a zombie before it wakes the waiter, so a waiter can still read
+        asleep after its child died."""
         root = self.root
         tids: dict[int, list[int]] = {}
         for t in threads:
@@ -221,10 +225,13 @@ class ProcessTree:
             mine = tids[root]
             if not self._children(root, mine if root in mine else (root, *mine)):
                 return True
+        waiters = [t for t in threads if t.blocked and t.wait_kind == _CHILD]
         for pid in self.discover(tids):
             if pid not in tids:
                 st = self.state(pid)
-                if st is not None and not st.dead:
+                if st is None:
+                    continue
+                if not st.dead or (waiters and _reaped_soon(st, waiters)):
                     return False
         return True
 
@@ -266,6 +273,38 @@ class ProcessTree:
     def close(self) -> None:
         for pid in {*self.members, *self._stat_fds, *(k[0] for k in self._children_fds)}:
             self.forget(pid)
+
+
+def _reaped_soon(zombie: ProcState, waiters: list[ThreadView]) -> bool:
+    """A thread blocked in a wait for a child (``abi.Wait.CHILD``) will be woken by ``zombie``:
+    it is that waiter's child or tracee, and the wait's target (wait4's ``pid``) takes it."""
+    tracer: int | None = None
+    for t in waiters:
+        if zombie.ppid != t.pid:
+            if tracer is None:
+                tracer = _tracer(zombie.pid)
+            if tracer != t.pid:
+                continue
+        target = t.wait_pid
+        if target == -1 or target == zombie.pid or (target < -1 and zombie.pgid == -target):
+            return True
+        if target == 0:
+            waiter = read_stat(t.pid)
+            if waiter is None or waiter.pgid == zombie.pgid:
+                return True
+    return False
+
+
+def _tracer(pid: int) -> int:
+    """The process tracing ``pid`` (0: none), from /proc/<pid>/status."""
+    try:
+        with open(f"/proc/{pid}/status", "rb") as f:
+            for line in f:
+                if line.startswith(b"TracerPid:"):
+                    return int(line.split()[1])
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
 
 
 def _close(fd: int | None) -> None:

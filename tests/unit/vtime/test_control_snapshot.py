@@ -24,7 +24,7 @@ def reference_threads(cb: ControlBlock) -> list[ThreadView]:
         out.append(ThreadView(
             i, s.tid, s.pid, s.seq, bool(s.seq & 1) and s.state == abi.State.BLOCKED,
             None if s.deadline_ns == abi.NO_DEADLINE else s.deadline_ns, s.cpu_ns, s.seen_epoch, keys,
-            s.spin_yields, s.wait_kind,
+            s.spin_yields, s.wait_kind, s.wait_pid,
         ))
     return out
 
@@ -43,6 +43,7 @@ slot_values = st.fixed_dictionaries({
     "spin_yields": st.integers(0, 2**32 - 1),
     "clock_reads": st.integers(0, 2**32 - 1),
     "wait_kind": st.sampled_from(list(abi.Wait)),
+    "wait_pid": st.integers(-(2**31), 2**31 - 1),
 })
 
 

@@ -24,8 +24,8 @@ def _until(predicate, timeout_s: float = 30.0) -> None:
         time.sleep(0.01)
 
 
-def _view(pid: int, tid: int, blocked: bool) -> ThreadView:
-    return ThreadView(0, tid, pid, 1 if blocked else 0, blocked, None, 0, 0, (), 0, int(abi.Wait.CHILD))
+def _view(pid: int, tid: int, blocked: bool, kind: abi.Wait = abi.Wait.CHILD, wait_pid: int = -1) -> ThreadView:
+    return ThreadView(0, tid, pid, 1 if blocked else 0, blocked, None, 0, 0, (), 0, int(kind), wait_pid)
 
 
 def test_the_tree_finds_a_launchers_children_and_drops_the_gone() -> None:
@@ -52,8 +52,10 @@ def test_the_tree_finds_a_launchers_children_and_drops_the_gone() -> None:
     tree.close()
 
 
-def test_a_zombie_does_not_keep_the_tree_from_idle() -> None:
-    """A child that exited but is not reaped never runs again: only live members need slots."""
+def test_a_zombie_keeps_the_tree_from_idle_only_while_its_waiter_is_about_to_reap_it() -> None:
+    """A child that exited but is not reaped never runs again: only live members need slots.
+    But the kernel marks it a zombie before it wakes a parent waiting for it, so a parent in a
+    wait that takes that child is about to run, though it may still read asleep."""
     parent = subprocess.Popen([sys.executable, "-c",
                                "import os, time\nif os.fork() == 0:\n    os._exit(0)\ntime.sleep(60)"])
     tree = ProcessTree(parent.pid)
@@ -61,7 +63,11 @@ def test_a_zombie_does_not_keep_the_tree_from_idle() -> None:
         _until(lambda: len(tree.discover({})) == 2)
         child = next(p for p in tree.discover({}) if p != parent.pid)
         _until(lambda: (st := tree.state(child)) is not None and st.dead)
-        assert tree.all_in_slots([_view(parent.pid, parent.pid, True)]) is True
+        assert tree.all_in_slots([_view(parent.pid, parent.pid, True, abi.Wait.FD)]) is True  # it sleeps
+        assert tree.all_in_slots([_view(parent.pid, parent.pid, True)]) is False  # wait(): it will reap it
+        assert tree.all_in_slots([_view(parent.pid, parent.pid, True, wait_pid=child)]) is False
+        assert tree.all_in_slots([_view(parent.pid, parent.pid, True, wait_pid=-os.getpgid(parent.pid))]) is False
+        assert tree.all_in_slots([_view(parent.pid, parent.pid, True, wait_pid=child + 10**6)]) is True  # another
     finally:
         parent.kill()
         parent.wait()
