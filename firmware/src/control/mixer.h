@@ -19,7 +19,9 @@
  * 1); MIXER_DIFF_THROTTLE is linear in throttle around the collective, sized at the hover
  * throttle d_h, as the PWM mixers of the paper's era: the request is scaled by d_c / d_h
  * before the thrust-space mix. The applied torques are computed back from the final thrusts;
- * applied_command_Nm is the same in the controllers' units (divided by that gain).
+ * applied_command_Nm is the same in the controllers' units (divided by that gain). Below a
+ * collective of about 1e-36 (the LQI never gives one; it gives 0) the float32 torques
+ * underflow and applied_command_Nm is 0 where flightcode's doubles give the fraction that fits.
  */
 #ifndef FW_CONTROL_MIXER_H
 #define FW_CONTROL_MIXER_H
