@@ -141,9 +141,6 @@ def run(
     try:
         with progress.bar:
             result = asyncio.run(main())
-    except asyncio.CancelledError:  # Ctrl-C or SIGTERM before the flight started: nothing was created
-        console.print("interrupted before the flight started")
-        raise typer.Exit(130) from None
     except ConfigError as exc:  # refused before anything was created, or virtual time required and missing
         _fail(str(exc))
     except RunStartError as exc:  # a resource could not be had; what was acquired is released

@@ -17,6 +17,7 @@ import contextlib
 import contextvars
 import os
 import signal
+import sys
 from collections.abc import Awaitable, Callable
 from typing import TypeVar
 
@@ -84,6 +85,13 @@ async def cancelled_by_signals(aw: Awaitable[_T]) -> _T:
         loop.add_signal_handler(sig, on_signal)
     try:
         return await aw
+    except asyncio.CancelledError:
+        if not signalled:
+            raise
+        # cancelled by a signal before the run could take it (before the flight started): the
+        # process exits as a shell reports Ctrl-C, saying so, instead of with a traceback
+        print("interrupted before the flight started", file=sys.stderr)
+        raise SystemExit(HARD_EXIT_STATUS) from None
     finally:
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.remove_signal_handler(sig)
