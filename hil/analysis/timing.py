@@ -20,12 +20,17 @@ Figures (all microseconds unless noted):
 * **lateness** (realtime only): how late each tick started against its absolute wall
   deadline. A run whose ticks fell behind is not a 400 Hz run, whatever its RTF says:
   :func:`realtime_verdict` says whether realtime was held.
+
+A board run (the firmware on the emulated LPC2148, docs/board.md) has every figure in the
+core's time: latency and period in sim time, compute as the busy cycles of the loop iteration
+that answered each sample (``board_cclk_hz`` turns them into cycles; no ``cpu_scale``).
 """
 
 from __future__ import annotations
 
 import enum
-from dataclasses import asdict, dataclass
+import json
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -109,12 +114,21 @@ class TimingReport:
     lateness_us: Stats | None = None  #: realtime: tick start - its wall deadline
     realtime: RealtimeVerdict | None = None  #: realtime runs only
     compute_source: ComputeSource = ComputeSource.TELEMETRY
+    #: a board run: the emulated core's clock (compute in target cycles = us x MHz); else None
+    board_cclk_hz: float | None = None
+    #: a board run: the busy cycles of each answering loop iteration (the histogram's data)
+    board_busy_cycles: tuple[float, ...] = ()
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
         return by_fields(self)  # compiled records pickle by field (hil/native/frozen.py)
 
     def as_dict(self) -> dict[str, object]:
         return asdict(self)
+
+    @property
+    def budget_cycles(self) -> float | None:
+        """The budget in the board's cycles (a board run)."""
+        return None if self.board_cclk_hz is None else self.budget_us * self.board_cclk_hz / 1e6
 
 
 @dataclass(frozen=True)
@@ -215,8 +229,10 @@ def analyze_log(log: Path, budget_us: float = NOMINAL_PERIOD_US) -> TimingReport
         if key in tm and tm[key].size:
             telemetry = tm[key]
             break
+    meta = read_metadata(log)
+    cclk = board_cclk_hz(meta)
     try:
-        cpu_scale = float(read_metadata(log).get("verdict", {}).get("cpu_scale", 1.0))
+        cpu_scale = 1.0 if cclk is not None else float(meta.get("verdict", {}).get("cpu_scale", 1.0))
     except ValueError:
         cpu_scale = 1.0
     cpu = tick.get("fc_cpu_us") if tick else None
@@ -224,8 +240,25 @@ def analyze_log(log: Path, budget_us: float = NOMINAL_PERIOD_US) -> TimingReport
     compute = compute_samples_us(cpu, telemetry, cpu_scale)
     if not tick or "latency_us" not in tick:
         return analyze_arrays(np.zeros(0), np.zeros(0), compute_us=compute, budget_us=budget_us, compute_source=source)
-    return analyze_arrays(tick["latency_us"], tick["esc_arrival_host_ns"], compute_us=compute, budget_us=budget_us,
-                          lateness_us=tick.get("lateness_us"), compute_source=source)
+    arrivals = tick["esc_arrival_host_ns"]
+    if cclk is not None:  # the commands' instants are the board's (sim time), not the host's
+        lat = tick["latency_us"].astype(float)
+        arrivals = np.where(lat >= 0, tick["t_ns"] + np.round(lat * 1e3), -1).astype(np.int64)
+    rep = analyze_arrays(tick["latency_us"], arrivals, compute_us=compute, budget_us=budget_us,
+                         lateness_us=tick.get("lateness_us"), compute_source=source)
+    if cclk is None:
+        return rep
+    return replace(rep, board_cclk_hz=cclk, board_busy_cycles=tuple((compute * cclk / 1e6).tolist()))
+
+
+def board_cclk_hz(meta: dict[str, dict[str, str]]) -> float | None:
+    """A board run's core clock from its log's metadata (None: not a board run)."""
+    if not meta.get("run", {}).get("board"):
+        return None
+    try:
+        return float(json.loads(meta.get("verdict", {}).get("timing", "{}")).get("board_cclk_hz", 60e6))
+    except (ValueError, AttributeError):
+        return 60e6
 
 
 def plot_latency(log: Path, png: Path, budget_us: float = NOMINAL_PERIOD_US) -> Path | None:
@@ -261,6 +294,13 @@ def plot_latency(log: Path, png: Path, budget_us: float = NOMINAL_PERIOD_US) -> 
         axes[2].axvline(NOMINAL_PERIOD_US, color="g", ls="--", label="2.5 ms")
         axes[2].legend()
     axes[2].set_xlabel("ESC command period [us] (host clock)")
+    rep = analyze_log(log, budget_us)
+    if rep.board_cclk_hz is not None and rep.board_busy_cycles:  # a board run: the loop's cycles
+        axes[2].clear()
+        axes[2].hist(rep.board_busy_cycles, bins=100, log=True)
+        axes[2].axvline(rep.budget_cycles, color="r", ls="--", label=f"{budget_us:g} us = {rep.budget_cycles:,.0f} cycles")
+        axes[2].legend()
+        axes[2].set_xlabel(f"loop busy cycles per sample (LPC2148 at {rep.board_cclk_hz / 1e6:g} MHz)")
     for ax in axes:
         ax.grid(True)
     fig.tight_layout()

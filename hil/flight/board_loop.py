@@ -174,15 +174,16 @@ class BoardTickLoop:
             if emitted or due:
                 self._pending.append(_Sample(k, t_ns, self.wiring.cycles, emitted, due, clock.monotonic_ns(),
                                              devices.sample_counter if emitted else -1))
+            if k == last and self._advance(t_ns + tick_ns):
+                # the last sample's answer: the firmware runs one tick on (the plant does not),
+                # settled before this tick's recording so that the log has every sample
+                self._settle(final=True)
             after = clock.monotonic_ns()
             devices.finish_tick(t_ns)
             if self.after_tick is not None:
                 self.after_tick(k, t_ns)
             stats.tick_cost_ns.append(after - work_start + clock.monotonic_ns() - after)
             stats.ticks += 1
-        # the last sample's answer: the firmware runs one more tick (the plant does not)
-        if self._advance((last + 1) * tick_ns):
-            self._settle(final=True)
         return EndReason.COMPLETED
 
     def _tick_figures(self, k: int) -> None:
