@@ -16,7 +16,8 @@ FIRMWARE = ROOT / "firmware"
 sys.path.insert(0, str(FIRMWARE))
 import hostlib  # noqa: E402
 
-SOURCES = ("src/drivers/xbus.c", "src/drivers/mtdata.c", "src/modes.c", "src/telemetry.c")
+SOURCES = ("src/drivers/xbus.c", "src/drivers/mtdata.c", "src/modes.c", "src/telemetry.c", "src/drivers/ppm.c",
+           "src/drivers/sbus.c")
 
 XBUS_BUF_SIZE = 512
 
@@ -93,6 +94,45 @@ class TelemetryRecordT(C.Structure):
                 ("telemetry_dropped", C.c_uint32)]
 
 
+# -- RC (firmware/src/drivers/ppm.h, sbus.h) ---------------------------------------------------
+class EdgeT(C.Structure):
+    _fields_ = [("t_us", C.c_uint16), ("seq", C.c_uint8), ("level", C.c_uint8), ("overrun", C.c_bool)]
+
+
+class CaptureParserT(C.Structure):
+    _fields_ = [("buf", C.c_uint8 * 64), ("n", C.c_size_t), ("garbage_bytes", C.c_uint32), ("crc_errors", C.c_uint32),
+                ("bad_flags", C.c_uint32)]
+
+
+class PpmParamsT(C.Structure):
+    _fields_ = [("sync_min_us", C.c_uint16), ("pulse_min_us", C.c_uint16), ("pulse_max_us", C.c_uint16),
+                ("min_channels", C.c_uint8), ("max_channels", C.c_uint8), ("lock_frames", C.c_uint8),
+                ("rising", C.c_bool), ("stale_ms", C.c_float)]
+
+
+PPM_COUNTERS = ("sequence_gaps", "overruns", "missing_edges", "bad_pulses", "too_many_channels", "short_frames",
+                "unlocked_frames", "frames", "locks", "stale_restarts")
+
+
+class PpmDecoderT(C.Structure):
+    _fields_ = [("params", PpmParamsT), *((name, C.c_uint32) for name in PPM_COUNTERS), ("level", C.c_uint8),
+                ("have_level", C.c_bool), ("have_t", C.c_bool), ("have_seq", C.c_bool), ("synced", C.c_bool),
+                ("last_level", C.c_uint8), ("last_seq", C.c_uint8), ("last_t", C.c_uint16),
+                ("channels", C.c_uint16 * 17), ("n_channels", C.c_uint8), ("candidate", C.c_uint8),
+                ("stable", C.c_uint8), ("locked_channels", C.c_uint8)]
+
+
+class SbusFrameT(C.Structure):
+    _fields_ = [("raw", C.c_uint16 * 16), ("flags", C.c_uint8)]
+
+
+class SbusParserT(C.Structure):
+    _fields_ = [("buf", C.c_uint8 * 64), ("n", C.c_size_t), ("garbage_bytes", C.c_uint32), ("frames", C.c_uint32)]
+
+
+SBUS_FN = C.CFUNCTYPE(None, C.c_void_p, C.POINTER(SbusFrameT))
+
+
 class Codecs:
     """The loaded library with its signatures set."""
 
@@ -123,6 +163,15 @@ class Codecs:
         d.mode_name.argtypes = [C.c_int]
         d.mode_name.restype = C.c_char_p
         d.telemetry_encode.argtypes = [C.POINTER(TelemetryRecordT), C.c_char_p]
+        d.capture_parser_push.argtypes = [C.POINTER(CaptureParserT), C.c_char_p, C.c_size_t]
+        d.capture_parser_push.restype = C.c_size_t
+        d.capture_parser_pop.argtypes = [C.POINTER(CaptureParserT), C.POINTER(EdgeT), C.c_size_t]
+        d.capture_parser_pop.restype = C.c_size_t
+        d.ppm_init.argtypes = [C.POINTER(PpmDecoderT), C.POINTER(PpmParamsT)]
+        d.ppm_edge.argtypes = [C.POINTER(PpmDecoderT), C.POINTER(EdgeT), C.POINTER(C.c_uint16)]
+        d.ppm_edge.restype = C.c_int
+        d.sbus_parser_init.argtypes = [C.POINTER(SbusParserT)]
+        d.sbus_parser_feed.argtypes = [C.POINTER(SbusParserT), C.c_char_p, C.c_size_t, SBUS_FN, C.c_void_p]
 
     # -- Xbus ------------------------------------------------------------------------------------
     def parser(self, max_payload: int = 0xFFFF) -> XbusParser:
