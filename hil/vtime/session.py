@@ -117,8 +117,8 @@ class VirtualTime:
 
 
 #: what a blocked thread waits in, by its slot's wait kind (``abi.Wait``)
-_WAIT_WHAT = {abi.Wait.FUTEX: " on another thread", abi.Wait.CHILD: " for a child process",
-              abi.Wait.READ: " reading a descriptor"}
+_WAIT_WHAT: dict[int, str] = {abi.Wait.FUTEX: " on another thread", abi.Wait.CHILD: " for a child process",
+                              abi.Wait.READ: " reading a descriptor"}
 
 
 def describe_stall(stall: Stall) -> str:
@@ -126,10 +126,11 @@ def describe_stall(stall: Stall) -> str:
     parts = []
     for t in stall.threads:
         if t.blocked:
-            what = "blocked" + _WAIT_WHAT.get(abi.Wait(t.wait_kind), "") \
+            what = "blocked" + _WAIT_WHAT.get(t.wait_kind, "") \
                 + (f" until {t.deadline_ns / 1e9:.6f} s" if t.deadline_ns is not None else "")
         else:
-            what = f"running (or in a call the shim does not see: {what_it_waits_in(t.pid, t.tid)})"
+            call = what_it_waits_in(t.pid, t.tid)
+            what = "running" if call == "running" else f"in {call} (a call the shim does not see)"
         parts.append(f"process {t.pid} thread {t.tid} {what}")
     return (f"the bench has waited {stall.waited_s:g} s (wall) for the flight code to go idle: "
             + "; ".join(parts + list(stall.unseen) or ["no thread attached"]) + ". A debugger stop or SIGSTOP "

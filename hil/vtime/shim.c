@@ -1,6 +1,6 @@
 /*
- * The clock shim: preloaded (LD_PRELOAD) into the flight-code process in lockstep runs so
- * that its clocks, sleeps and I/O-wait timeouts run on the bench's sim time.
+ * The clock shim: preloaded (LD_PRELOAD) into every process of the flight command in lockstep
+ * runs so that its clocks, sleeps and I/O-wait timeouts run on the bench's sim time.
  *
  * See docs/time.md. In short:
  *  - clock_gettime/gettimeofday/time/timespec_get read sim time from the control block
@@ -13,6 +13,10 @@
  *    the wait early by time: it writes the wake FIFO once sim time has reached the deadline.
  *  - A thread that reads a virtual clock spin_limit times without blocking is busy-waiting
  *    on it; it is granted spin_quantum_ns of sim time as if it had slept.
+ *  - Waits that another process of the flight command's tree ends (wait, waitpid, wait3,
+ *    wait4, waitid; read/readv on a descriptor with nothing to read) publish "blocked, ask
+ *    the kernel" in the slot only when the real call will sleep; the bench confirms the
+ *    sleep in /proc, as for a lock.
  *  - Futex waits with absolute deadlines (pthread_cond_timedwait, sem_timedwait, ...) cannot
  *    wait on the wake FIFO: their deadlines are translated to the host clock and the call is
  *    counted as uncovered, so the bench can warn.
