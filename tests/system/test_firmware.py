@@ -3,7 +3,7 @@ scenario with the criteria the Python flight code meets, and the cross-check fli
 scenario and seed with both flight codes: plant truth agrees within stated tolerances).
 
 The host build is made once, before the flights (tests/unit/firmware/fwbuild.py), so the
-rig's command (firmware/fc-host) finds it up to date."""
+rig's command (`make -s run`) finds it up to date."""
 
 from __future__ import annotations
 
@@ -46,7 +46,8 @@ async def test_short_scenario_on_virtual_time(fly) -> None:
     assert result.passed, explain(result)
     assert result.clock is Clock.VIRTUAL, result.clock_note
     assert result.timing["barrier_misses"] == 0, explain(result)
-    assert result.flight_returncode == 0, explain(result)  # stopped by SIGTERM, motors to minimum
+    # the flight code itself (make's child) took the bench's SIGTERM and set the motors to minimum
+    assert any("event=shutdown" in line for line in result.flight_stderr_tail), explain(result)
 
 
 @pytest.mark.parametrize("name", [s for s in SHIPPED if s not in EXPECTED_TO_FAIL])
