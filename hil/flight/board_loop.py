@@ -256,9 +256,10 @@ class BoardTickLoop:
             end: int | None = it.start_cycle + it.cycles
         else:  # still running, or it began before the count did (the first sample after boot)
             running = self.wiring.probes.running_since()
-            if not final and running is not None and running <= a.tick_cycle:
+            in_progress = running is not None and running <= a.tick_cycle
+            if in_progress and not final:
                 return None
-            end = next_tick if next_tick is not None else running
+            end = next_tick if next_tick is not None else (None if in_progress else running)
         commands = self._commands
         while commands and commands[0] < a.tick_cycle:
             commands.popleft()
