@@ -14,6 +14,7 @@ time (it refuses the run, naming the key).
 from __future__ import annotations
 
 import hashlib
+import sys
 from pathlib import Path
 
 import tomli_w
@@ -44,7 +45,8 @@ def firmware_elf(rig: Rig) -> Path:
         return rig.firmware_path
     tree = firmware_tree()
     try:
-        build_firmware("arm", firmware_dir=tree, make_vars={"FLIGHT_CONFIG": str(rig.flight_config_path)})
+        build_firmware("arm", firmware_dir=tree,  # the bench's interpreter runs the design step (a copy has no .venv)
+                       make_vars={"FLIGHT_CONFIG": str(rig.flight_config_path), "PYTHON": sys.executable})
     except FirmwareBuildError as exc:
         raise ConfigError(f"{rig.path}: [flight] firmware = \"arm\": the build failed: {exc}") from None
     return tree / "build" / "arm" / "fc.elf"

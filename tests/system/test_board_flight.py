@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from hil.analysis.timing import analyze_log
 from hil.config.rig import load_rig
 from hil.fleet.mutation.catalogue import load_catalogue
 from hil.fleet.mutation.edits import Edit, apply_edit
@@ -128,7 +130,7 @@ def build_mutant(tmp_path: Path, target: str) -> Path:
         (tree / "flightcode").symlink_to(ROOT / "flightcode")  # the design step's sources (Makefile GEN_SRC)
         path = tree / "firmware" / mutant.file
         path.write_text(apply_edit(path.read_text(), Edit(mutant.file, mutant.old, mutant.new)))
-    done = subprocess.run(["make", "-s", "-C", str(tree / "firmware"), target,
+    done = subprocess.run(["make", "-s", "-C", str(tree / "firmware"), target, f"PYTHON={sys.executable}",
                            f"FLIGHT_CONFIG={ROOT / 'rigs' / 'firmware-paper-quad.toml'}"],
                           capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stdout + done.stderr
@@ -199,3 +201,21 @@ def test_replay_verify_flies_a_board_run_again(tmp_path: Path) -> None:
     assert again.ok, again.report()
     assert {"imu/tx", "imu/rx", "telemetry/rx", "spi", "esc", "capture", "truth"} <= set(again.compared)
     assert again.compared["spi"] > 0 and again.compared["imu/tx"] > 0
+
+
+def test_hil_timing_shows_the_loops_cycles_against_the_budget(tmp_path: Path) -> None:
+    from hil.flight.run import run_flight
+
+    run = run_flight(BOARD_RIG, "arm-idle", duration_s=0.4, out_dir=tmp_path)
+    assert run.log_path is not None
+    hil = Path(sys.executable).with_name("hil")
+    done = subprocess.run([str(hil), "timing", str(run.log_path), "--png", str(tmp_path / "t.png")],
+                          capture_output=True, text=True, timeout=300, env={"COLUMNS": "200", "PATH": ""})
+    assert done.returncode == 0, done.stdout + done.stderr
+    out = done.stdout
+    assert "loop busy time per sample (us on the emulated LPC2148)" in out
+    assert "budget 2500 us = 150,000 cycles" in out and "0 of 160 over the budget" in out
+    assert (tmp_path / "t.png").stat().st_size > 0
+    rep = analyze_log(run.log_path)
+    assert rep.board_cclk_hz == 60e6 and len(rep.board_busy_cycles) == rep.compute_us.n == 160
+    assert rep.compute_us.p50 * 60 == pytest.approx(float(np.median(rep.board_busy_cycles)), rel=0.01)
