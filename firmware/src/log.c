@@ -1,6 +1,8 @@
 /* logfmt lines: see log.h. */
 #include "log.h"
 
+#include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -101,12 +103,139 @@ void log_int(const char *key, int64_t value)
     put(text, strlen(text));
 }
 
+/* powers of ten 1e0..1e22: exact in double */
+static const double POW10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+
+/* The rounding error of the product a x b: a x b - fl(a x b), exactly (Dekker's product with
+ * Veltkamp's split; no fused multiply-add needed). */
+static double product_error(double a, double b, double p)
+{
+    const double split = 134217729.0; /* 2^27 + 1 */
+    double ta = split * a, tb = split * b;
+    double ah = ta - (ta - a), al = a - ah;
+    double bh = tb - (tb - b), bl = b - bh;
+    return ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+}
+
+/*
+ * v as printf's "%.6g" writes it, without printf: six significant digits, exponent form below
+ * 1e-4 and from 1e6 on, trailing zeros dropped. On the ARM7 printf's float path is newlib's dtoa
+ * (arbitrary-precision soft-float arithmetic and malloc, about 0.1 ms a value at 60 MHz); this
+ * is a few multiplications. The scaling by a power of ten rounds once, so in rare cases the
+ * sixth digit may differ from printf's by one; nothing reads logs that closely.
+ */
+void log_format_g6(double v, char *out, size_t cap)
+{
+    char digits[8], *p = out;
+    double a = v < 0 ? -v : v, m;
+    int e = 0, nd;
+    uint32_t d;
+    if (cap < 16) {
+        if (cap)
+            out[0] = '\0';
+        return;
+    }
+    if (isnan(v)) {
+        strcpy(out, "nan");
+        return;
+    }
+    if (isinf(v)) {
+        strcpy(out, v < 0 ? "-inf" : "inf");
+        return;
+    }
+    if (v < 0 || (v == 0 && 1.0 / v < 0))
+        *p++ = '-';
+    if (a == 0) {
+        strcpy(p, "0");
+        return;
+    }
+    if (a < 1e-22 || a >= 1e22) { /* beyond the table: rare enough for printf */
+        snprintf(out, cap, "%.6g", v);
+        return;
+    }
+    if (a >= 1.0) { /* a = m x 10^e, 1 <= m < 10 */
+        while (e < 21 && a >= POW10[e + 1])
+            e++;
+    } else {
+        e = -1;
+        while (e > -22 && a * POW10[-e] < 1.0)
+            e--;
+    }
+    if (5 - e <= 0) /* six digits before the point */
+        m = a / POW10[e - 5];
+    else if (5 - e <= 22)
+        m = a * POW10[5 - e];
+    else
+        m = a * POW10[22] * POW10[5 - e - 22];
+    d = (uint32_t)m;
+    if (m - d > 0.5) {
+        d++;
+    } else if (m - d == 0.5) { /* a tie after the scaling's rounding: which side is the exact value? */
+        double below; /* > 0: the exact scaled value is below m */
+        if (5 - e <= 0)
+            below = product_error(m, POW10[e - 5], m * POW10[e - 5]) + (m * POW10[e - 5] - a);
+        else if (5 - e <= 22)
+            below = -product_error(a, POW10[5 - e], m);
+        else
+            below = 0.0;
+        if (below < 0 || (below == 0 && (d & 1u))) /* above the tie, or a true tie to even */
+            d++;
+    }
+    if (d >= 1000000u) { /* 9.999995 rounds up to 10.0000 */
+        d = (d + 5u) / 10u;
+        e++;
+    }
+    for (int i = 5; i >= 0; i--) {
+        digits[i] = (char)('0' + d % 10u);
+        d /= 10u;
+    }
+    for (nd = 6; nd > 1 && digits[nd - 1] == '0'; nd--) {
+    }
+    if (e < -4 || e >= 6) {
+        int x = e < 0 ? -e : e;
+        *p++ = digits[0];
+        if (nd > 1) {
+            *p++ = '.';
+            memcpy(p, digits + 1, (size_t)nd - 1);
+            p += nd - 1;
+        }
+        *p++ = 'e';
+        *p++ = e < 0 ? '-' : '+';
+        if (x >= 100)
+            *p++ = (char)('0' + x / 100);
+        *p++ = (char)('0' + (x / 10) % 10);
+        *p++ = (char)('0' + x % 10);
+        *p = '\0';
+        return;
+    }
+    if (e < 0) {
+        *p++ = '0';
+        *p++ = '.';
+        for (int i = -1; i > e; i--)
+            *p++ = '0';
+        memcpy(p, digits, (size_t)nd);
+        p += nd;
+    } else {
+        memcpy(p, digits, (size_t)e + 1 < (size_t)nd ? (size_t)e + 1 : (size_t)nd);
+        for (int i = nd; i < e + 1; i++)
+            p[i] = '0';
+        p += e + 1;
+        if (nd > e + 1) {
+            *p++ = '.';
+            memcpy(p, digits + e + 1, (size_t)(nd - e - 1));
+            p += nd - e - 1;
+        }
+    }
+    *p = '\0';
+}
+
 void log_float(const char *key, double value)
 {
     char text[32];
     if (!g_log.open)
         return;
-    snprintf(text, sizeof text, "%.6g", value);
+    log_format_g6(value, text, sizeof text);
     put_key(key);
     put(text, strlen(text));
 }

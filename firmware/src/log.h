@@ -13,6 +13,7 @@
 #define FW_LOG_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 typedef enum { LOG_DEBUG = 10, LOG_INFO = 20, LOG_WARNING = 30, LOG_ERROR = 40 } log_level_t;
@@ -28,6 +29,9 @@ void log_int(const char *key, int64_t value);
 void log_float(const char *key, double value);
 void log_bool(const char *key, bool value);
 void log_end(void);
+
+/* v as printf's "%.6g" writes it, without printf's float path (cap >= 16). */
+void log_format_g6(double v, char *out, size_t cap);
 
 /* A whole line with one string field, for the common short events. */
 void log_event(log_level_t level, const char *event);
