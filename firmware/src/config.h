@@ -15,6 +15,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <math.h>
 
 #ifdef FW_EMBEDDED_CONFIG
 #define CFG_PATH_MAX 48 /* the board has no file system: paths and file names are short labels */
@@ -118,6 +119,11 @@ bool cfg_parse(const char *text, size_t len, const char *file, fc_config_t *cfg,
 
 /* "file: key: reason" */
 void cfg_error_format(const cfg_error_t *err, char *out, size_t cap);
+
+/* A config duration (float32 seconds) in ns, rounded to the microsecond first: 0.1f is
+ * 0.100000001 s, and the ns it would give puts a 0.1 s timer one sample late on the 2.5 ms
+ * grid where flightcode's float64 value lands on it. Config durations have <= 6 decimals. */
+static inline int64_t cfg_ns(float s) { return (int64_t)llround((double)s * 1e6) * 1000; }
 
 /* Loop period = IMU sample period, s. */
 static inline float cfg_T_s(const fc_config_t *cfg) { return 1.0f / (float)cfg->imu.rate_hz; }

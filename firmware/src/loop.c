@@ -416,7 +416,7 @@ static void imu_timeout(flight_loop_t *L)
 void loop_step(flight_loop_t *L)
 {
     imu_sample_t sample;
-    uint64_t timeout_ns = (uint64_t)llround((double)L->cfg->failsafe.imu_timeout_s * 1e9);
+    uint64_t timeout_ns = (uint64_t)cfg_ns(L->cfg->failsafe.imu_timeout_s);
     int r = xsens_read_sample(&L->imu, timeout_ns, &sample);
     if (r < 0) { /* the port itself failed (unplugged, I/O error) */
         loop_port_error(&L->counters.imu_port_errors, "imu");

@@ -10,7 +10,6 @@
 
 #define DEG_F 0.017453292519943295f
 
-static int64_t ns_of(float s) { return (int64_t)llround((double)s * 1e9); }
 
 /* The design inputs of the generated header must be this config's (flightcode designs them
  * at start-up from the config; the firmware was built from one). */
@@ -93,10 +92,8 @@ bool loop_init(flight_loop_t *L, const fc_config_t *cfg, cfg_error_t *err)
     kp.r_acc_m2ps4 = cfg->kf.r_acc;
     kp.r_rest_vz_m2ps2 = cfg->kf.r_rest_vz;
     kp.baro_gate_chi2 = cfg->kf.baro_gate_chi2;
-    {
-        long n = lround((double)cfg->kf.baro_gate_timeout_s / (double)T_s);
-        kp.baro_gate_max_rejects = (uint32_t)(n < 1 ? 1 : n);
-    }
+    /* round(timeout / T) half to even, as flightcode */
+    kp.baro_gate_max_rejects = altitude_kf_gate_max_rejects(cfg_ns(cfg->kf.baro_gate_timeout_s), L->period_ns);
     altitude_kf_init(&L->kf, &kp);
     pp.baro_max_step_Pa = cfg->plausibility.baro_max_step_Pa;
     pp.baro_flat_readings = (uint16_t)cfg->plausibility.baro_flat_readings;
@@ -106,8 +103,8 @@ bool loop_init(flight_loop_t *L, const fc_config_t *cfg, cfg_error_t *err)
     if (cfg->plausibility.baro_flat_readings > FLAT_LINE_MAX_READINGS || !plausibility_init(&L->plausible, &pp))
         return fail(err, "plausibility.baro_flat_readings", "beyond what this build's flat-line window holds");
     L->baro_motion_on = cfg->plausibility.baro_motion_window_s > 0.0f;
-    if (!baro_motion_params_make(&bp, ns_of(cfg->plausibility.baro_motion_window_s),
-                                 ns_of(cfg->plausibility.baro_motion_block_s), cfg->plausibility.baro_motion_max_m))
+    if (!baro_motion_params_make(&bp, cfg_ns(cfg->plausibility.baro_motion_window_s),
+                                 cfg_ns(cfg->plausibility.baro_motion_block_s), cfg->plausibility.baro_motion_max_m))
         return fail(err, "plausibility.baro_motion_window_s", "beyond what this build's window ring holds");
     baro_motion_init(&L->baro_motion, &bp);
     mp.frame = cfg->vehicle.frame == CFG_FRAME_X ? MIXER_FRAME_X : MIXER_FRAME_PLUS;
@@ -133,13 +130,13 @@ bool loop_init(flight_loop_t *L, const fc_config_t *cfg, cfg_error_t *err)
     if (!analog_parse_mount(mount, accel.mount_axis, accel.mount_sign))
         return fail(err, "adc.accel.mount_B", "not a signed permutation of X, Y, Z");
     analog_init(&L->analog, cfg->adc.vref_V, &baro, &accel);
-    baro_ref_init(&L->baro_ref, ns_of(cfg->adc.baro.zero_average_s));
+    baro_ref_init(&L->baro_ref, cfg_ns(cfg->adc.baro.zero_average_s));
     accel_offset_init(&L->accel_zero);
     mcp3204_init(&L->adc, channels);
     xp.legacy = cfg->imu.identity == CFG_IMU_LEGACY;
     xp.rate_hz = (uint16_t)cfg->imu.rate_hz;
     xp.goto_config_attempts = (uint32_t)cfg->imu.goto_config_attempts;
-    xp.reply_timeout_ns = (uint64_t)ns_of(cfg->imu.reply_timeout_s);
+    xp.reply_timeout_ns = (uint64_t)cfg_ns(cfg->imu.reply_timeout_s);
     xsens_init(&L->imu, &xp);
     if (cfg->rc.frontend == CFG_RC_CAPTURE) {
         ppm_params_t pp2;
@@ -162,13 +159,13 @@ bool loop_init(flight_loop_t *L, const fc_config_t *cfg, cfg_error_t *err)
     mo.gesture_throttle_max_us = cfg->modes.gesture_throttle_max_us;
     mo.arm_yaw_min_us = cfg->modes.arm_yaw_min_us;
     mo.disarm_yaw_max_us = cfg->modes.disarm_yaw_max_us;
-    mo.gesture_hold_ns = ns_of(cfg->modes.gesture_hold_s);
+    mo.gesture_hold_ns = cfg_ns(cfg->modes.gesture_hold_s);
     mo.landed_alt_m = cfg->modes.landed_alt_m;
     mo.landed_vz_mps = cfg->modes.landed_vz_mps;
     mo.landed_collective_ratio = cfg->modes.landed_collective_ratio;
     mo.landed_accel_mps2 = cfg->modes.landed_accel_mps2;
-    mo.landed_ns = ns_of(cfg->modes.landed_s);
-    mo.auto_disarm_ns = ns_of(cfg->modes.auto_disarm_s);
+    mo.landed_ns = cfg_ns(cfg->modes.landed_s);
+    mo.auto_disarm_ns = cfg_ns(cfg->modes.auto_disarm_s);
     mo.takeoff_alt_m = cfg->altitude.takeoff_alt_m;
     modes_init(&L->modes, &mo);
     if (!landing_descent_init(&L->descent, cfg->failsafe.descend_mps))
@@ -177,10 +174,10 @@ bool loop_init(flight_loop_t *L, const fc_config_t *cfg, cfg_error_t *err)
         return fail(err, "vehicle.m_kg", "no hover throttle for this mass and thrust");
     touchdown_accel_init(&L->a_up_lp);
     /* timing and sticks */
-    L->rc_loss_ns = (int64_t)((double)cfg->failsafe.rc_loss_s * 1e9);
-    L->rest_after_ns = (int64_t)((double)cfg->kf.rest_after_s * 1e9);
+    L->rc_loss_ns = cfg_ns(cfg->failsafe.rc_loss_s);
+    L->rest_after_ns = cfg_ns(cfg->kf.rest_after_s);
     L->tel_slot_ns = L->period_ns * cfg->telemetry.divider;
-    L->stats_ns = (int64_t)((double)cfg->log.stats_period_s * 1e9);
+    L->stats_ns = cfg_ns(cfg->log.stats_period_s);
     L->ch[0] = (uint8_t)(cfg->rc.channel_roll - 1);
     L->ch[1] = (uint8_t)(cfg->rc.channel_pitch - 1);
     L->ch[2] = (uint8_t)(cfg->rc.channel_throttle - 1);

@@ -38,10 +38,10 @@ static void fill_hal_config(const fc_config_t *c, hal_config_t *h)
     h->port[HAL_DEV_TELEMETRY].enabled = c->telemetry.enable && c->ports.telemetry.present;
     h->rc_frontend = c->rc.frontend == CFG_RC_SBUS ? HAL_RC_SBUS : HAL_RC_CAPTURE;
     h->spi_speed_hz = (uint32_t)c->adc.spi_speed_hz;
-    h->adc_read_timeout_ns = (uint64_t)((double)c->adc.read_timeout_s * 1e9);
-    h->adc_reply_timeout_ns = (uint64_t)((double)c->adc.reply_timeout_s * 1e9);
-    h->adc_quiet_ns = (uint64_t)((double)c->adc.quiet_s * 1e9);
-    h->adc_resync_interval_ns = (uint64_t)((double)c->adc.resync_interval_s * 1e9);
+    h->adc_read_timeout_ns = (uint64_t)cfg_ns(c->adc.read_timeout_s);
+    h->adc_reply_timeout_ns = (uint64_t)cfg_ns(c->adc.reply_timeout_s);
+    h->adc_quiet_ns = (uint64_t)cfg_ns(c->adc.quiet_s);
+    h->adc_resync_interval_ns = (uint64_t)cfg_ns(c->adc.resync_interval_s);
     h->adc_entry_attempts = (uint32_t)c->adc.entry_attempts;
     h->esc_first_channel = (uint8_t)c->esc.first_channel;
 }
