@@ -11,7 +11,9 @@ sinks, wire taps) and the criteria. What differs is how the devices meet the fli
   :class:`~hil.flight.board_port.BoardPort`; the ground XBee keeps its pty;
 * the MCP3204 answers SPI0 (its conversions go to the event sinks as the ``adc`` port's);
 * the PPM generator's edges go to CAP1.0, its frames to the recording;
-* the ESC models take their inputs from the PWM and match-output pins.
+* the ESC models take their inputs from the PWM and match-output pins; their widths at each
+  tick, when they changed, go to the event sinks as the esc port's ``TargetsSet`` (the
+  recording's ``/hil/esc/command``, the criteria's ``esc.cmd_us``).
 
 The Bus Pirate, the capture front-end and the Maestro of the DeviceSet have no wire on a
 board run and stay idle.
@@ -22,6 +24,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from emulators.base import DeviceEvent
+from emulators.maestro.device import TargetsSet
 from emulators.xsens.events import SampleSent
 from hil.analysis.timing_stream import LatencySample, LatencyStats
 from hil.flight.board_wiring import BoardWiring
@@ -38,6 +41,7 @@ class BoardDevices:
         self.wiring = wiring
         self.on_esc_command: Callable[[int, int], None] = lambda t_host_ns, t_ns: None
         self.sample_counter = -1  #: the packet counter of the last sample the XSENS sent
+        self._commanded: tuple[float, ...] = ()
         devices.event_sinks.append(self._on_event)
 
     def _on_event(self, port: str, ev: DeviceEvent) -> None:
@@ -108,7 +112,14 @@ class BoardDevices:
         d = self.devices
         d.t_ns = t_ns
         escs = d.escs
-        d.throttle = self.wiring.escs.drive(t_ns, lambda i, t, w: escs[i].update(t, w))  # type: ignore[assignment]
+        pins = self.wiring.escs
+        d.throttle = pins.drive(t_ns, lambda i, t, w: escs[i].update(t, w))  # type: ignore[assignment]
+        widths = pins.applied_us
+        if widths != self._commanded:  # the criteria's esc.cmd_us: the widths on the ESC pins
+            self._commanded = widths
+            ev = TargetsSet(t_ns, 0, tuple(round(w * 4) for w in widths))
+            for sink in d.event_sinks:
+                sink("esc", ev)
         if t_ns > d.plant.t_ns:
             d.plant.step(t_ns, d.throttle)
         d.sensors = d.plant.sensors()

@@ -90,6 +90,11 @@ class EscPins:
             self._set(esc, t_ns, train.width_us)
         train.high = level
 
+    @property
+    def applied_us(self) -> tuple[float, ...]:
+        """The widths the ESC models were last given (at the last :meth:`drive`)."""
+        return tuple(self._applied)
+
     def rebase(self, delta_ns: int) -> None:
         """Sim time moved by ``delta_ns`` (the end of boot): the times kept move with it."""
         for train in self._mat.values():

@@ -67,6 +67,8 @@ async def test_a_short_hover_flies_on_the_board_as_on_the_host(fly, tmp_path: Pa
     assert board.trace is not None
     t, h = board.trace.signal("truth.h_m")
     assert h[-1] > 1.0, explain(board)  # took off at about 3.4 s
+    _, cmd = board.trace.signal("esc.cmd_us")  # the widths on the ESC pins, what the criteria read
+    assert np.min(cmd[t >= 2.5]) >= 1000 and np.max(cmd[t >= 5.0]) > 1300, explain(board)
     compute = board_criterion(board, COMPUTE)
     assert compute.passed and compute.judged, explain(board)
     assert compute.detail.startswith("judged on the emulated LPC2148 at 60 MHz (target cycles); margin ")
