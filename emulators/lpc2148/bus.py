@@ -44,7 +44,8 @@ from emulators.lpc2148.scb import SCB_BASE, Pconp, ScbParams, SystemControl, Scb
 from emulators.lpc2148.spi import SPI0_BASE, Spi, SpiSlave, SpiTransfer
 from emulators.lpc2148.timebase import Timebase
 from emulators.lpc2148.timer import TIMER0_BASE, TIMER1_BASE, Timer
-from emulators.lpc2148.uart import UART0_BASE, UART1_BASE, Uart
+from emulators.lpc2148.uart import Uart
+from emulators.lpc2148.uart_regs import UART0_BASE, UART1_BASE
 from emulators.lpc2148.vic import VIC_BASE, Vic
 
 APB_SLOT = 0x4000

@@ -20,13 +20,7 @@ above the trigger level 1/4/8/14 of FCR bits 7:6), CTI (IER bit 0: characters in
 no FIFO activity, a character in or an RBR read, for 4 character times, inside the manual's
 3.5-4.5), THRE (IER bit 1). With FCR bit 0 clear the FIFOs are one byte deep.
 
-Transmitting: THR writes fill the 16-byte TX FIFO (a write to a full FIFO is lost and
-counted); the shift register sends one frame at a time at the programmed rate while TER bit 7
-is set; :meth:`Uart.take_tx` gives each byte with its start and end tick. LSR.THRE: TX FIFO
-empty; TEMT: FIFO and shift register empty. The THRE interrupt follows the manual's start-up
-rule: when the FIFO empties having held fewer than two characters since the last THRE event,
-the interrupt waits one character time less the stop bits; it clears on a THR write or an IIR
-read that reports it. Enabling it in IER with the FIFO empty raises it at once.
+Transmitting: :mod:`~emulators.lpc2148.uart_tx`.
 
 Not modelled (NotModelled when selected): auto-baud (ACR start bit), UART1's loopback and
 auto flow control (MCR bits 4, 6, 7); UART1's modem inputs read inactive (MSR 0), so there is
@@ -37,102 +31,18 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass
-from enum import IntEnum, unique
-from typing import Final
 
 from emulators.lpc2148.errors import NotModelled
 from emulators.lpc2148.line import FORMAT_8N1, FrameFormat, LineFrame, LineReceiver, format_from_lcr, level_table
+from emulators.lpc2148 import uart_horizon, uart_tx
 from emulators.lpc2148.regs import RegisterFile
 
-UART0_BASE = 0xE000_C000
-UART1_BASE = 0xE001_0000
-FIFO_DEPTH = 16
-TRIGGER_LEVELS = (1, 4, 8, 14)
-#: character times without FIFO activity before the CTI interrupt
-CTI_CHARACTERS = 4.0
-
-
-@unique
-class UartReg(IntEnum):
-    """Register offsets (UM10139 UART register map tables)."""
-
-    RBR_THR_DLL = 0x00
-    IER_DLM = 0x04
-    IIR_FCR = 0x08
-    LCR = 0x0C
-    MCR = 0x10  #: UART1 only
-    LSR = 0x14
-    MSR = 0x18  #: UART1 only
-    SCR = 0x1C
-    ACR = 0x20
-    FDR = 0x28
-    TER = 0x30
-
-
-@unique
-class Iir(IntEnum):
-    """IIR values (bits 3:0) by priority."""
-
-    RLS = 0x06
-    RDA = 0x04
-    CTI = 0x0C
-    THRE = 0x02
-    NONE = 0x01
-
-
-class Lsr(IntEnum):
-    DR = 0x01
-    OE = 0x02
-    PE = 0x04
-    FE = 0x08
-    BI = 0x10
-    THRE = 0x20
-    TEMT = 0x40
-    RXFE = 0x80
-
-
-_ERRORS = Lsr.OE | Lsr.PE | Lsr.FE | Lsr.BI
-
-
-@dataclass(frozen=True)
-class TxByte:
-    """A byte the UART sent: on the line from PCLK tick ``start`` to ``end``."""
-
-    start: float
-    end: float
-    value: int
-    bit_ticks: float
-    fmt: FrameFormat
-
-
-_RBR: Final = int(UartReg.RBR_THR_DLL)
-_IER: Final = int(UartReg.IER_DLM)
-_IIR: Final = int(UartReg.IIR_FCR)
-_LCR: Final = int(UartReg.LCR)
-_MCR: Final = int(UartReg.MCR)
-_LSR: Final = int(UartReg.LSR)
-_MSR: Final = int(UartReg.MSR)
-_SCR: Final = int(UartReg.SCR)
-_ACR: Final = int(UartReg.ACR)
-_FDR: Final = int(UartReg.FDR)
-_TER: Final = int(UartReg.TER)
-_IIR_RLS: Final = int(Iir.RLS)
-_IIR_RDA: Final = int(Iir.RDA)
-_IIR_CTI: Final = int(Iir.CTI)
-_IIR_THRE: Final = int(Iir.THRE)
-_IIR_NONE: Final = int(Iir.NONE)
-_DR: Final = int(Lsr.DR)
-_OE: Final = int(Lsr.OE)
-_PE: Final = int(Lsr.PE)
-_FE: Final = int(Lsr.FE)
-_BI: Final = int(Lsr.BI)
-_THRE: Final = int(Lsr.THRE)
-_TEMT: Final = int(Lsr.TEMT)
-_RXFE: Final = int(Lsr.RXFE)
-_ERROR_BITS: Final = int(_ERRORS)
-_INF: Final = float("inf")
-
+# the register map and records live in uart_regs; re-exported here (tests, the bus)
+from emulators.lpc2148.uart_regs import (  # noqa: F401
+    UART0_BASE, UART1_BASE, FIFO_DEPTH, TRIGGER_LEVELS, CTI_CHARACTERS, UartReg, Iir, Lsr, _ERRORS,
+    TxByte, _RBR, _IER, _IIR, _LCR, _MCR, _LSR, _MSR, _SCR, _ACR, _FDR, _TER, _IIR_RLS, _IIR_RDA,
+    _IIR_CTI, _IIR_THRE, _IIR_NONE, _DR, _OE, _PE, _FE, _BI, _THRE, _TEMT, _RXFE, _ERROR_BITS, _INF,
+)
 
 class Uart(RegisterFile):
     """One UART; time in PCLK ticks. ``modem``: UART1's MCR and MSR exist."""
@@ -264,21 +174,12 @@ class Uart(RegisterFile):
             return
         self._changed()
         while True:
-            due = self._due_before(tick)
+            due = uart_tx.due_before(self, tick)
             if due is None:
                 break
             self._step(due)
         self._take_rx(tick)
         self.now = max(self.now, tick)
-
-    def _due_before(self, tick: int) -> float | None:
-        """The earliest transmitter event at or before ``tick``."""
-        tsr, thre = self._tsr_until, self._thre_int_at
-        if tsr is not None and tsr <= tick:
-            return thre if thre is not None and thre < tsr else tsr
-        if thre is not None and thre <= tick:
-            return thre
-        return None
 
     def _step(self, t: float) -> None:
         self._take_rx(t)
@@ -286,7 +187,7 @@ class Uart(RegisterFile):
             self._thre_int, self._thre_int_at = True, None
         if self._tsr_until is not None and self._tsr_until <= t:
             self._tsr_until = None
-            self._load_tsr(t)
+            uart_tx.load_tsr(self, t)
 
     def next_event(self) -> int | None:
         if self._ne_valid:
@@ -307,65 +208,9 @@ class Uart(RegisterFile):
         access (None: not before one). Characters that change nothing (below the trigger
         level, no time-out between them) are not events: a burst's bytes are taken at once."""
         if not self._nie_valid:
-            self._nie = self._irq_horizon()
+            self._nie = uart_horizon.irq_horizon(self)
             self._nie_valid = True
         return self._nie
-
-    def _irq_horizon(self) -> int | None:
-        code = self._pending_code()
-        if code == _IIR_RLS or code == _IIR_RDA or code == _IIR_THRE:
-            return None  # asserted, and it stays so until the firmware reads or writes
-        ier = self.ier
-        best = _INF
-        if ier & 2:  # THRE rises when the FIFO empties (at a load of the shift register)
-            if self._thre_int_at is not None:
-                best = self._thre_int_at
-            elif self._tsr_until is not None and self.tx and self.ter & 0x80:
-                t = self._tsr_until
-                for _ in range(len(self.tx) - 1):
-                    t = t + self._n_bits * self._bit
-                best = t
-        if ier & 5:
-            if code == _IIR_CTI:  # the time-out alone asserts it: the next character ends it
-                if self.line.frames:
-                    done = self.line.peek_done(self._bit, self._fmt)
-                    if done is not None and done < best:
-                        best = done
-            else:
-                rise = self._rx_rise()
-                if rise < best:
-                    best = rise
-        return None if best == _INF else math.ceil(best)
-
-    def _rx_rise(self) -> float:
-        """With the line low: when the receiver next raises it (RDA at the trigger level, the
-        time-out, an overrun with RLS enabled), from the characters on the line."""
-        ier = self.ier
-        n = len(self.rx)
-        last = self._last_rx_activity
-        window = self._cti_ticks
-        if not self.line.frames:
-            return last + window if ier & 1 and n else _INF
-        depth, trigger = self._depth, self._trigger
-        dones, complete = self.line.clean_dones(self._bit, self._fmt, max(trigger - n, depth - n + 1, 1) + 1)
-        for done in dones:
-            if ier & 1 and n:
-                cti = last + window
-                if done > math.ceil(cti):
-                    return cti  # the time-out comes before this character
-            if n >= depth:
-                if ier & 4:
-                    return done  # an overrun: OE, RLS
-                continue
-            n += 1
-            last = done
-            if ier & 1 and n >= trigger:
-                return done
-        if not complete:  # the next character is not read whole (it may be an error): stop at it
-            nxt = self.line.peek_done(self._bit, self._fmt) if not dones else dones[-1]
-            bound = _INF if nxt is None else nxt
-            return min(bound, last + window) if ier & 1 and n else bound
-        return last + window if ier & 1 and n else _INF
 
     # -- receiver -------------------------------------------------------------------------
     def _take_rx(self, t: float) -> None:
@@ -399,20 +244,6 @@ class Uart(RegisterFile):
         if errors_seen:
             counters["rx_errors"] += errors_seen
 
-    def _receive(self, value: int, fe: bool, pe: bool, brk: bool, t: float) -> None:
-        self.counters["rx_chars"] += 1
-        if len(self.rx) >= self._depth:
-            self.lsr_errors |= _OE
-            self.counters["rx_overruns"] += 1
-            return
-        errors = (_FE if fe else 0) | (_PE if pe else 0) | (_BI if brk else 0)
-        if errors:
-            self.counters["rx_errors"] += 1
-            self._rx_errs += 1
-        self.rx.append((value & self._data_mask, errors))
-        self._last_rx_activity = t
-        self._show_top()
-
     def _show_top(self) -> None:
         if self.rx and not self._top_shown:
             self.lsr_errors |= self.rx[0][1]
@@ -434,31 +265,6 @@ class Uart(RegisterFile):
         return value
 
     # -- transmitter ----------------------------------------------------------------------
-    def _write_thr(self, value: int) -> None:
-        self._thre_int, self._thre_int_at = False, None
-        if len(self.tx) >= self._depth:
-            self.counters["tx_fifo_overflows"] += 1
-            return
-        self.tx.append(value & 0xFF)
-        if len(self.tx) > self._tx_peak:
-            self._tx_peak = len(self.tx)
-        if self._tsr_until is None:
-            self._load_tsr(float(self.now))
-
-    def _load_tsr(self, t: float) -> None:
-        if not self.tx or not self.ter & 0x80:
-            return
-        value = self.tx.popleft()
-        bit = self._bit
-        fmt = self._fmt
-        self._tsr_until = t + fmt.n_bits * bit
-        self._sent.append(TxByte(t, self._tsr_until, value, bit, fmt))
-        self.counters["tx_bytes"] += 1
-        if not self.tx:  # the FIFO just emptied: a THRE event
-            delay = 0.0 if self._tx_peak >= 2 else (fmt.n_bits - fmt.stop_bits) * bit
-            self._thre_int_at = t + delay
-            self._tx_peak = 0
-
     # -- interrupts -----------------------------------------------------------------------
     def _pending_code(self) -> int:
         ier = self.ier
@@ -542,7 +348,7 @@ class Uart(RegisterFile):
                 self.dll = value & 0xFF
                 self._rates()
             else:
-                self._write_thr(value)
+                uart_tx.write_thr(self, value)
         elif offset == _IER:
             if dlab:
                 self.dlm = value & 0xFF
@@ -568,7 +374,7 @@ class Uart(RegisterFile):
         elif offset == _TER:
             self.ter = value & 0x80
             if self.ter and self._tsr_until is None:
-                self._load_tsr(float(self.now))
+                uart_tx.load_tsr(self, float(self.now))
         elif self.modem and offset == _MCR:
             if value & 0xD0:
                 raise NotModelled(self.base + offset, f"{self.name} loopback or auto flow control")
