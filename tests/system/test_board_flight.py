@@ -36,7 +36,7 @@ BOARD_RIG = ROOT / "rigs" / "paper-quad-lpc2148.toml"
 C_RIG = ROOT / "rigs" / "paper-quad-c.toml"
 COMPUTE = "timing: fc_compute_p99_us"
 #: the firmware's iteration at the end of the 1 s baro zero average logs four lines and takes
-#: 3.1 ms on the target: sample 400 (t = 1.0 s) is answered late (firmware/NOTES-interfaces.md)
+#: 2.7 ms on the target: sample 400 (t = 1.0 s) is answered late (docs/board.md, "Measured")
 BOOT_END_NS = 1_000_000_000
 #: board against host build, same scenario and seed (measured on hover seed 1, 6 s: see
 #: test_a_short_hover_flies_on_the_board_as_on_the_host): the board answers each sample 1.4 ms
