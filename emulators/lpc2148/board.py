@@ -101,6 +101,7 @@ class Lpc2148(Lpc2148Bus):
         for slot in self._slots:
             slot.stale = True
         self._due = self._next_due()
+        self.schedule_changed = True
 
     def uart_line_in(self, uart: int, data: bytes, cycle: int, baud: float, fmt: FrameFormat = FORMAT_8N1) -> None:
         """A device starts sending ``data`` to UART``uart``'s RXD at ``cycle``, at its own

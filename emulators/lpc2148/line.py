@@ -219,10 +219,15 @@ class LineReceiver:
         if not self._whole(frames[0], bit_time, fmt, n):
             return out, False
         previous = self.idle_from
+        checked_bit = -1.0
+        checked_fmt: FrameFormat | None = None
         for f in frames:  # each frame starts after the previous one's last sample: each is read whole alike
-            if f.start < previous or f.levels[0] != 0 or len(f.levels) != n or (f.fmt is not fmt and f.fmt != fmt) \
-                    or not self._is_clean(bit_time, f.bit_time, n):
+            if f.start < previous or f.levels[0] != 0 or len(f.levels) != n:
                 return out, False
+            if f.bit_time != checked_bit or f.fmt is not checked_fmt:  # a burst's frames share both
+                if (f.fmt is not fmt and f.fmt != fmt) or not self._is_clean(bit_time, f.bit_time, n):
+                    return out, False
+                checked_bit, checked_fmt = f.bit_time, f.fmt
             previous = f.start + to_stop
             out.append(previous)
             if len(out) >= limit:

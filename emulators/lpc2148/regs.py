@@ -68,9 +68,19 @@ class RegisterFile:
 
     def __init__(self, base: int) -> None:
         self.base = base
-        #: set by a register read that may have brought the model's next event earlier (a
-        #: UART's RBR read starts a new character time-out); the bus clears it
+        #: set by a register read that changed the model's interrupt line or what it does
+        #: next (a UART's RBR read starts a new character time-out; its LSR or IIR read ends
+        #: RLS or THRE); the bus clears it. A read that leaves it clear changed neither.
         self.rescheduled = False
+
+    # -- registers (every model has them) ----------------------------------------------
+    def read(self, offset: int, tick: int) -> int:
+        """The register at ``offset`` at ``tick``."""
+        raise self.unmodelled(offset, "read")
+
+    def write(self, offset: int, value: int, tick: int) -> None:
+        """Write the register at ``offset`` at ``tick``."""
+        raise self.unmodelled(offset, "write")
 
     # -- time (models without a clock keep these) --------------------------------------
     def advance_to(self, tick: int) -> None:

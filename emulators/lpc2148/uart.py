@@ -33,9 +33,9 @@ import math
 from collections import deque
 
 from emulators.lpc2148.errors import NotModelled
-from emulators.lpc2148.line import FORMAT_8N1, FrameFormat, LineFrame, LineReceiver, format_from_lcr, level_table
 from emulators.lpc2148 import uart_horizon, uart_tx
-from emulators.lpc2148.regs import RegisterFile
+from emulators.lpc2148.line import FORMAT_8N1, FrameFormat, LineFrame, level_table
+from emulators.lpc2148.uart_state import UartState
 
 # the register map and records live in uart_regs; re-exported here (tests, the bus)
 from emulators.lpc2148.uart_regs import (  # noqa: F401
@@ -44,64 +44,8 @@ from emulators.lpc2148.uart_regs import (  # noqa: F401
     _IIR_CTI, _IIR_THRE, _IIR_NONE, _DR, _OE, _PE, _FE, _BI, _THRE, _TEMT, _RXFE, _ERROR_BITS, _INF,
 )
 
-class Uart(RegisterFile):
+class Uart(UartState):
     """One UART; time in PCLK ticks. ``modem``: UART1's MCR and MSR exist."""
-
-    def __init__(self, base: int, name: str, *, modem: bool = False) -> None:
-        super().__init__(base)
-        self.name = name
-        self.modem = modem
-        self.now = 0
-        self.ier = self.lcr = self.scr = self.mcr = self.acr = 0
-        self.fcr = 0
-        self.dll, self.dlm, self.fdr, self.ter = 0x01, 0x00, 0x10, 0x80
-        self.rx: deque[tuple[int, int]] = deque()  #: (value, LSR error bits)
-        self.tx: deque[int] = deque()
-        self.line = LineReceiver()
-        self.lsr_errors = 0
-        self._top_shown = False
-        self._last_rx_activity = 0.0
-        self._tsr_until: float | None = None
-        self._thre_int = False
-        self._thre_int_at: float | None = None
-        self._tx_peak = 0
-        self._sent: list[TxByte] = []
-        self.counters: dict[str, int] = {"rx_chars": 0, "rx_overruns": 0, "rx_errors": 0, "tx_bytes": 0,
-                                         "tx_fifo_overflows": 0}
-        #: characters in the RX FIFO with an error (LSR.RXFE)
-        self._rx_errs = 0
-        # the divisor's, LCR's and FCR's consequences, recomputed when they are written
-        self._bit = 16.0
-        self._fmt = FORMAT_8N1
-        self._n_bits = 10
-        self._cti_ticks = 0.0
-        self._data_mask = 0xFF
-        self._depth = 1
-        self._trigger = 1
-        self._rates()
-        self._fifo_setup()
-        #: the earliest tick with something to process (a transmitter event, a character
-        #: complete); -1: not known. Register reads do not move it: only writes and bytes in.
-        self._work_at = -1.0
-        # next_event() and next_irq_event(), kept until the state changes
-        self._ne_valid = False
-        self._ne: int | None = None
-        self._nie_valid = False
-        self._nie: int | None = None
-
-    # -- rates ----------------------------------------------------------------------------
-    def _rates(self) -> None:
-        dl = (self.dlm << 8 | self.dll) or 1
-        div_add, mul = self.fdr & 0xF, (self.fdr >> 4) & 0xF
-        self._bit = 16.0 * dl * (1.0 + div_add / mul) if div_add and mul else 16.0 * dl
-        self._fmt = format_from_lcr(self.lcr)
-        self._n_bits = self._fmt.n_bits
-        self._data_mask = (1 << self._fmt.data_bits) - 1
-        self._cti_ticks = CTI_CHARACTERS * (self._n_bits * self._bit)
-
-    def _fifo_setup(self) -> None:
-        self._depth = FIFO_DEPTH if self.fcr & 1 else 1
-        self._trigger = TRIGGER_LEVELS[self.fcr >> 6 & 3] if self.fcr & 1 else 1
 
     @property
     def bit_ticks(self) -> float:
@@ -122,24 +66,6 @@ class Uart(RegisterFile):
 
     def _char_ticks(self) -> float:
         return self._n_bits * self._bit
-
-    def _changed(self) -> None:
-        self._ne_valid = self._nie_valid = False
-        self._work_at = -1.0
-
-    def _work(self) -> float:
-        """:attr:`_work_at`, computed."""
-        best = _INF
-        if self._tsr_until is not None:
-            best = self._tsr_until
-        if self._thre_int_at is not None and self._thre_int_at < best:
-            best = self._thre_int_at
-        if self.line.frames:
-            done = self.line.peek_done(self._bit, self._fmt)
-            if done is not None and done < best:
-                best = done
-        self._work_at = best
-        return best
 
     # -- the device's side ------------------------------------------------------------------
     def line_in(self, data: bytes, tick: float, bit_ticks: float, fmt: FrameFormat = FORMAT_8N1) -> None:
@@ -249,9 +175,6 @@ class Uart(RegisterFile):
             self.lsr_errors |= self.rx[0][1]
             self._top_shown = True
 
-    def _cti_active(self, now: float) -> bool:
-        return bool(self.rx) and now >= self._last_rx_activity + self._cti_ticks
-
     def _read_rbr(self) -> int:
         if not self.rx:
             return 0  # RBR with no data: the last value is undefined; the model reads 0
@@ -266,19 +189,6 @@ class Uart(RegisterFile):
 
     # -- transmitter ----------------------------------------------------------------------
     # -- interrupts -----------------------------------------------------------------------
-    def _pending_code(self) -> int:
-        ier = self.ier
-        if ier & 4 and self.lsr_errors & _ERROR_BITS:
-            return _IIR_RLS
-        if ier & 1 and self.rx:
-            if len(self.rx) >= self._trigger:
-                return _IIR_RDA
-            if self.now >= self._last_rx_activity + self._cti_ticks:
-                return _IIR_CTI
-        if ier & 2 and self._thre_int:
-            return _IIR_THRE
-        return _IIR_NONE
-
     def _pending(self) -> Iir:
         return Iir(self._pending_code())
 
@@ -308,6 +218,7 @@ class Uart(RegisterFile):
             if self.lsr_errors:
                 self.lsr_errors = 0
                 self._ne_valid = self._nie_valid = False
+                self.rescheduled = True  # RLS ends: the line may rise again sooner
             return value
         if offset == _RBR:
             if dlab:
@@ -319,6 +230,7 @@ class Uart(RegisterFile):
             if pending == _IIR_THRE:
                 self._thre_int = False
                 self._ne_valid = self._nie_valid = False
+                self.rescheduled = True  # THRE ends: the line may rise again sooner
             return pending | (0xC0 if self.fcr & 1 else 0)
         if offset == _IER:
             return self.dlm if dlab else self.ier

@@ -6,15 +6,12 @@ events: a burst's bytes are taken at once."""
 from __future__ import annotations
 
 import math
-from typing import Any
-
 from emulators.lpc2148.uart_regs import _IIR_CTI, _IIR_RDA, _IIR_RLS, _IIR_THRE, _INF
-
-#: the Uart (emulators.lpc2148.uart), untyped here: that module imports this one
-Uart = Any
+from emulators.lpc2148.uart_state import UartState
 
 
-def irq_horizon(u: Uart) -> int | None:
+
+def irq_horizon(u: UartState) -> int | None:
     code: int = u._pending_code()
     if code == _IIR_RLS or code == _IIR_RDA or code == _IIR_THRE:
         return None  # asserted, and it stays so until the firmware reads or writes
@@ -41,7 +38,7 @@ def irq_horizon(u: Uart) -> int | None:
     return None if best == _INF else math.ceil(best)
 
 
-def rx_rise(u: Uart) -> float:
+def rx_rise(u: UartState) -> float:
     """With the line low: when the receiver next raises it (RDA at the trigger level, the
     time-out, an overrun with RLS enabled), from the characters on the line."""
     ier: int = u.ier
@@ -54,7 +51,10 @@ def rx_rise(u: Uart) -> float:
     trigger: int = u._trigger
     dones: list[float]
     complete: bool
-    dones, complete = u.line.clean_dones(u._bit, u._fmt, max(trigger - n, depth - n + 1, 1) + 1)
+    # with RDA enabled the trigger level comes within trigger - n characters; else an overrun
+    # within depth - n + 1
+    limit = (trigger - n if ier & 1 else depth - n + 1) + 1
+    dones, complete = u.line.clean_dones(u._bit, u._fmt, limit if limit > 1 else 1)
     for done in dones:
         if ier & 1 and n:
             cti = last + window

@@ -11,15 +11,12 @@ read that reports it. Enabling it in IER with the FIFO empty raises it at once.
 
 from __future__ import annotations
 
-from typing import Any
-
 from emulators.lpc2148.uart_regs import TxByte
-
-#: the Uart (emulators.lpc2148.uart), untyped here: that module imports this one
-Uart = Any
+from emulators.lpc2148.uart_state import UartState
 
 
-def write_thr(u: Uart, value: int) -> None:
+
+def write_thr(u: UartState, value: int) -> None:
     u._thre_int, u._thre_int_at = False, None
     if len(u.tx) >= u._depth:
         u.counters["tx_fifo_overflows"] += 1
@@ -31,7 +28,7 @@ def write_thr(u: Uart, value: int) -> None:
         load_tsr(u, float(u.now))
 
 
-def load_tsr(u: Uart, t: float) -> None:
+def load_tsr(u: UartState, t: float) -> None:
     if not u.tx or not u.ter & 0x80:
         return
     value = u.tx.popleft()
@@ -46,7 +43,7 @@ def load_tsr(u: Uart, t: float) -> None:
         u._tx_peak = 0
 
 
-def due_before(u: Uart, tick: int) -> float | None:
+def due_before(u: UartState, tick: int) -> float | None:
     """The earliest transmitter event at or before ``tick``."""
     tsr: float | None = u._tsr_until
     thre: float | None = u._thre_int_at

@@ -199,7 +199,12 @@ class Vic(RegisterFile):
             return
         elif _VECT_CNTL0 <= offset < _VECT_CNTL0 + 4 * N_SLOTS:
             self.vect_cntl[(offset - _VECT_CNTL0) >> 2] = value & (_SLOT_ENABLE | _SLOT_CHANNEL)
-            self._levels = [self._level_of(c) for c in range(32)]
+            levels = [NON_VECTORED] * 32
+            for slot in range(N_SLOTS - 1, -1, -1):  # the lowest enabled slot of a channel wins
+                cntl = self.vect_cntl[slot]
+                if cntl & _SLOT_ENABLE:
+                    levels[cntl & _SLOT_CHANNEL] = slot
+            self._levels = levels
         elif offset == _INT_SELECT:
             self.int_select = value
         elif offset == _INT_ENABLE:

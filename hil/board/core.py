@@ -180,12 +180,14 @@ class Core:
             if self._interrupt():
                 continue
             nxt = bus.next_irq_cycle()  # only an interrupt changes what the core does next
+            bus.schedule_changed = False
             until = target if nxt is None or nxt > target else nxt
             if bus.sleeping:
                 self.idle_cycles += until - s.cycles
                 s.cycles = until
                 continue
             s.deadline = until
+            self.mmio.slice_limit = target
             self._slice(stop_pc)
             # a slice that ended on a peripheral event: an interrupt it raises was requested then
             self._slice_event = int(s.deadline) if s.stop_reason == Stop.DEADLINE and s.deadline < target else None
@@ -259,6 +261,9 @@ class Core:
         bus, s = self.bus, self.counter.state
         irq, fiq = bus.irq_request, bus.fiq_request
         self.mmio.irq_seen, self.mmio.fiq_seen = irq, fiq
+        if self.mmio.request_ended:  # every request seen ended at an access since the last look
+            self.mmio.request_ended = False
+            self._irq_seen_at = None
         if not (irq or fiq):
             s.irq_watch = 0
             self._irq_seen_at = None

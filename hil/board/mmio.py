@@ -8,8 +8,12 @@ access phases: 2 x VPBDIV - 1 extra CCLK cycles); the VIC, on the AHB, none.
 
 A callback never stops the emulation itself (Unicorn would re-run the access's instruction);
 it asks the cycle counter to stop at the next block boundary, when an access raised an error,
-put the core to sleep or asserted an interrupt line. A write may schedule a peripheral event
-(a timer started, a byte to send): the slice's deadline moves to it.
+put the core to sleep or asserted an interrupt line. An access may move a peripheral event (a
+timer started, a byte to send, a UART's time-out restarted by an RBR read): the bus says so
+(``schedule_changed``) and the slice's deadline moves to its next interrupt-relevant event,
+earlier or later (never beyond the run loop's target).
+An access that ends a request the run loop saw (the handler's acknowledge) ends the watch for
+the CPSR to allow it: a request that comes again is a new one.
 """
 
 from __future__ import annotations
@@ -28,7 +32,9 @@ APB_BASE, APB_SIZE = 0xE000_0000, 0x0020_0000
 AHB_BASE, AHB_SIZE = 0xFFFF_F000, 0x0000_1000  # the VIC
 SCB_BASE = 0xE01F_C000
 SLOT_SHIFT = 14  # APB peripherals sit in 16 KB slots
-_UNSCHEDULED_SLOTS = frozenset({0xE002_8000 >> SLOT_SHIFT, 0xE002_C000 >> SLOT_SHIFT})  # GPIO, PINSEL
+CPSR_I, CPSR_F = 0x80, 0x40
+#: MAMCR, MAMTIM, VPBDIV: the registers the core's memory timing follows
+_MEMORY_TIMING = frozenset({SCB_BASE + 0x000, SCB_BASE + 0x004, SCB_BASE + 0x100})
 
 ReadCb = ctypes.CFUNCTYPE(ctypes.c_uint64, ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint, ctypes.c_void_p)
 WriteCb = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint, ctypes.c_uint64, ctypes.c_void_p)
@@ -59,6 +65,8 @@ class PeripheralBus(Protocol):
 
     def next_irq_cycle(self) -> int | None: ...
 
+    schedule_changed: bool
+
     @property
     def irq_request(self) -> bool: ...
 
@@ -82,6 +90,11 @@ class MmioBridge:
         #: the interrupt lines as the run loop last saw them: an access that raises one stops
         #: the slice so that the run loop can take it
         self.irq_seen = self.fiq_seen = False
+        #: a request the run loop saw ended at an access (the run loop's own record of it is
+        #: stale: the next request is a new one)
+        self.request_ended = False
+        #: the cycle the run loop runs to (a slice's deadline is never later)
+        self.slice_limit = 0
         #: polling loops: the run loop's judge of a block (address, size) -> skippable
         self.poll_watch = PollWatch()
         self.is_poll_loop: Callable[[int, int], bool] = lambda address, size: False
@@ -136,15 +149,8 @@ class MmioBridge:
                 if apb:
                     state.cycles += self.apb_wait
                     self.apb_accesses += 1
-                    if address >> SLOT_SHIFT == SCB_BASE >> SLOT_SHIFT:
+                    if address in _MEMORY_TIMING:
                         self.memory_timing_changed()
-                    # a write may schedule an event before the slice's deadline (a timer started,
-                    # a byte to send): the slice ends at the first block boundary after it. The
-                    # pin connect block and GPIO schedule nothing (nor does the VIC, on the AHB).
-                    if address >> SLOT_SHIFT not in _UNSCHEDULED_SLOTS:
-                        nxt = self.bus.next_irq_cycle()
-                        if nxt is not None and nxt < state.deadline:
-                            state.deadline = nxt
                 self._after_access()
             except BaseException as e:  # noqa: BLE001
                 self._failed(e)
@@ -152,8 +158,26 @@ class MmioBridge:
 
     def _after_access(self) -> None:
         bus = self.bus
-        if bus.sleeping or (bus.irq_request and not self.irq_seen) or (bus.fiq_request and not self.fiq_seen):
+        if bus.schedule_changed:
+            # the next interrupt-relevant event moved (a timer started, a byte to send, a
+            # time-out restarted, the FIFO read below its trigger level): the slice ends at the
+            # first block boundary at or after it
+            bus.schedule_changed = False
+            nxt = bus.next_irq_cycle()
+            limit = self.slice_limit
+            self.state.deadline = limit if nxt is None or nxt > limit else nxt
+        irq, fiq = bus.irq_request, bus.fiq_request
+        if bus.sleeping or (irq and not self.irq_seen) or (fiq and not self.fiq_seen):
             self.state.stop_request = 1
+        elif (self.irq_seen and not irq) or (self.fiq_seen and not fiq):
+            # a request the run loop saw has ended (acknowledged): stop watching for the CPSR to
+            # allow it (no slice ends there for nothing), and a request that comes back is new
+            self.irq_seen, self.fiq_seen = irq, fiq
+            state = self.state
+            if state.irq_watch:
+                state.irq_watch = (state.irq_watch & CPSR_F if fiq else 0) | (state.irq_watch & CPSR_I if irq else 0)
+            if not (irq or fiq):
+                self.request_ended = True
 
     def _failed(self, e: BaseException) -> None:
         if self.fault is None:

@@ -2,7 +2,7 @@
 access, a tick of time and a tick with a UART burst cost in host CPU time.
 
 Run: ``.venv/bin/python tests/bench/bench_lpc2148_bus.py [--rounds R] [--baseline DIR]
-[--only bus|board]``
+[--checkout DIR] [--only bus|board]``
 
 The part is set up as the firmware leaves it: PLL0 at 60 MHz, PCLK = CCLK, UART0 at 921600
 baud (FIFO trigger 8, RDA and RLS interrupts), UART1 at 115200, Timer0 interrupting every
@@ -25,10 +25,11 @@ toggling every 1000 counts, the PWM at 400 Hz. Then, each on this process's CPU 
 
 Every scenario also prints a digest of what the firmware would observe (each read's value and
 cycle, the interrupt requests' cycles, the bytes sent with their cycles; for the board tick the
-console lines, the interrupt entries and the cycle counts): with ``--baseline DIR`` (an export
-of an older commit: ``git archive <commit> | tar -x -C DIR``) each round runs both checkouts,
-interleaved, each in a fresh process, and the digests must agree (printed "same"); the ratio
-of the medians is printed. Prints; asserts nothing about time.
+console lines, the interrupt entries' cycles, the cycle counts and UART1's bytes): with
+``--baseline DIR`` (an export of an older commit: ``git archive <commit> | tar -x -C DIR``)
+each round runs both checkouts, interleaved, each in a fresh process, and the digests must
+agree (printed "same"); the ratio of the medians is printed. Prints; asserts nothing about
+time.
 """
 
 from __future__ import annotations
@@ -207,7 +208,7 @@ def bench_board(ticks: int) -> dict[str, Any] | None:
     core.reset(image.entry)
     trace = Trace()
     core.semihost.on_line = lambda line: trace.add(core.cycles, line)
-    core.on_interrupt = lambda kind, requested, entry: trace.add(kind, requested, entry)
+    core.on_interrupt = lambda kind, requested, entry: trace.add(kind, entry)
     bus.attach_spi_slave(lambda mosi, transfer: (mosi * 7 + 3) & 0xFF)
     core.run_until(5 * 60_000)
 
@@ -269,6 +270,8 @@ def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--baseline", type=Path)
+    ap.add_argument("--checkout", type=Path, default=_ROOT,
+                    help="the tree measured as 'this checkout' (e.g. a copy built with mypyc)")
     ap.add_argument("--only", choices=("bus", "board"))
     ap.add_argument("--one-round", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--root", type=Path, help=argparse.SUPPRESS)
@@ -286,7 +289,7 @@ def main(argv: list[str]) -> int:
     for _ in range(args.rounds):
         if args.baseline is not None:
             base.append(_rows(_round_in(args.baseline.resolve(), args.only)))
-        now.append(_rows(_round_in(_ROOT, args.only)))
+        now.append(_rows(_round_in(args.checkout.resolve(), args.only)))
     print(f"LPC2148 bus, host CPU time, median of {args.rounds} rounds"
           + (f"; baseline {args.baseline}" if base else ""))
     head = f"  {'':28s} {'this checkout':>14s}"
