@@ -167,9 +167,12 @@ class Lpc2148Bus(Schedule):
         if slot is not None:
             if slot.frozen_at is not None:
                 raise RegisterAccessError(address, f"{slot.model.name} is powered off (PCONP bit {slot.pconp})")
-            slot.model.write(address & (APB_SLOT - 1), value, self.time.pclk_at(self.cycle) - slot.offset)
+            model = slot.model
+            model.write(address & (APB_SLOT - 1), value, self.time.pclk_at(self.cycle) - slot.offset)
             self._model_line(slot)
-            self._rescheduled(slot)
+            if model.rescheduled:  # what the model does next changed (not by an IR clear)
+                model.rescheduled = False
+                self._rescheduled(slot)
         elif page == _SCB_PAGE:
             self._scb(address & (APB_SLOT - 1), value)
         else:

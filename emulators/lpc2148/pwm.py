@@ -203,4 +203,5 @@ class Pwm(RegisterFile):
         else:
             raise self.unmodelled(offset, "write")
         k.changed()
+        self.rescheduled = True
         self._emit(tick)

@@ -68,9 +68,10 @@ class RegisterFile:
 
     def __init__(self, base: int) -> None:
         self.base = base
-        #: set by a register read that changed the model's interrupt line or what it does
-        #: next (a UART's RBR read starts a new character time-out; its LSR or IIR read ends
-        #: RLS or THRE); the bus clears it. A read that leaves it clear changed neither.
+        #: set by a register access that changed what the model does next or, for a read, its
+        #: interrupt line (a write to a timer's match registers, a byte to send; a UART's RBR
+        #: read starts a new character time-out, its LSR or IIR read ends RLS or THRE); the bus
+        #: clears it. A read that leaves it clear changed neither; a write, its events.
         self.rescheduled = False
 
     # -- registers (every model has them) ----------------------------------------------

@@ -168,6 +168,7 @@ class Spi(RegisterFile):
 
     def write(self, offset: int, value: int, tick: int) -> None:
         self.advance_to(tick)
+        self.rescheduled = True  # a transfer started, SPIE changed
         if offset == SpiReg.SPDR:
             self._spdr_accessed()
             self._start(value, tick)

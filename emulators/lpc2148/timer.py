@@ -230,3 +230,4 @@ class Timer(RegisterFile):
         else:
             raise self.unmodelled(offset, "write")
         k.changed()
+        self.rescheduled = True

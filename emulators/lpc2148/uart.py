@@ -253,6 +253,7 @@ class Uart(UartState):
     def write(self, offset: int, value: int, tick: int) -> None:
         self.advance_to(tick)
         self._changed()
+        self.rescheduled = True
         value &= 0xFFFF_FFFF
         dlab = self.lcr & 0x80
         if offset == _RBR:

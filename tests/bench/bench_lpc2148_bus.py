@@ -136,14 +136,17 @@ def bench_accesses(n: int) -> dict[str, Any]:
                                  ("write T0IR", T0 + 0x00, 0), ("write VICVectAddr", VIC + 0x030, 0)):
         bus, c = _board()
         read, write = bus.read, bus.write
+        values: list[int] = []
+        keep = values.append
         t = time.process_time()
         if value is None:
             for k in range(n):
-                trace.add(read(address, 4, c + 23 * k))
+                keep(read(address, 4, c + 23 * k))
         else:
             for k in range(n):
                 write(address, value, 4, c + 23 * k)
         rows[name] = (time.process_time() - t) / n * 1e6
+        trace.add(name, values, bus.irq_request)
     return {"us": rows, "digest": trace.digest()}
 
 
