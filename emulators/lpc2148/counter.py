@@ -119,14 +119,17 @@ class MatchCounter:
         return self.enabled and not self.held_in_reset
 
     def _horizon(self) -> None:
-        """The next match of a channel that needs stepping (MCR bits or extra), absolute."""
+        """The next match of a channel that needs stepping (MCR bits or extra), absolute; and
+        when it is the next effect or interrupt, the look-aheads too (no copy to step)."""
         self._stop_at = _NEVER
         self._reset_next = False
         if not (self.enabled and not self.held_in_reset):
             return
-        reset = self._reset
-        relevant = self._interrupt | reset | self._stop | self.extra
+        interrupt, reset, stop = self._masks()
+        effect = interrupt | stop | self.extra
+        relevant = effect | reset
         if not relevant:
+            self._effect_at = self._irq_at = None  # nothing ever matches
             return
         mr = self.mr
         tc = self.tc
@@ -135,12 +138,22 @@ class MatchCounter:
         value = 0 if self._reset_next else (tc + 1) & MASK32  # TC after it
         period = self.pr + 1
         best = _NEVER
+        hit = 0
         for c in range(self.n_match):
             if relevant >> c & 1:
                 t = first + ((mr[c] - value) & MASK32) * period
                 if t < best:
-                    best = t
+                    best, hit = t, 1 << c
+                elif t == best:
+                    hit |= 1 << c
         self._stop_at = self.tick + best
+        # the first match to step is the first of all: if it has an effect, it is the next one
+        if hit & effect:
+            self._effect_at = self._stop_at
+        if hit & interrupt:
+            self._irq_at = self._stop_at
+        elif hit & stop:
+            self._irq_at = None  # the counter stops before any interrupt
 
     def advance_to(self, tick: int, on_match: MatchHandler = _no_handler) -> None:
         """Let the counter run to ``tick``, calling ``on_match(mask, tick)`` at each match of
