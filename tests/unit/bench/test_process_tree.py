@@ -101,7 +101,14 @@ async def test_an_orphan_that_left_the_session_is_found_and_ended(tmp_path: Path
     flight, token = await started(f"setsid {STUBBORN} & exit 0", tmp_path, 1)
     await asyncio.wait_for(flight.exited.wait(), 30)  # the launcher is gone, its pipes held by the orphan
     (orphan,) = tagged(token)
+    # /proc shows the forked child before it has exec'd setsid and left the session: wait for that
+    # state change itself (bounded), not for a guessed time
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + 30
     st = read_stat(orphan)
+    while st is not None and st.session != orphan and loop.time() < deadline:
+        await asyncio.sleep(0.005)
+        st = read_stat(orphan)
     assert st is not None and st.ppid == os.getpid() and st.session == orphan
     await asyncio.wait_for(flight.stop(grace_s=0.5), 30)
     assert tagged(token) == []

@@ -14,6 +14,8 @@ from hil.cli import app
 
 REPO = Path(__file__).resolve().parents[3]
 COMMANDS = sorted(c.name or c.callback.__name__ for c in app.registered_commands)  # type: ignore[union-attr]
+#: command groups (`hil firmware build`)
+GROUPS = sorted(str(g.name) for g in app.registered_groups)
 
 
 def test_commands_known() -> None:
@@ -52,7 +54,7 @@ def test_readme_everyday_commands_name_real_commands() -> None:
         words = line.split()
         assert words[0] == "hil", line
         if len(words) > 1 and not words[1].startswith("-"):
-            assert words[1] in COMMANDS, line
+            assert words[1] in COMMANDS + GROUPS, line
 
 
 def test_readme_activation_puts_hil_on_path() -> None:
