@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from itertools import islice
 from dataclasses import dataclass
 from enum import IntEnum, unique
 from typing import Final, NamedTuple
@@ -137,11 +138,27 @@ class LineReceiver:
         self._last_end = float("-inf")
         #: the last clean-rate question and its answer: (rx bit, tx bit, bits, clean)
         self._clean_memo: tuple[float, float, int, bool] = (0.0, 0.0, 0, False)
+        # clean_dones' answer for a receiver at (_dq_bit, _dq_fmt), kept as frames come and go:
+        # the dones of the leading frames read whole, and whether they are all the frames
+        self._dq: deque[float] = deque()
+        self._dq_bit = -1.0
+        self._dq_fmt: FrameFormat | None = None  #: None: not kept
+        self._dq_full = False
 
     def push(self, frame: LineFrame) -> None:
         """Put a frame on the line (frames come in time order and do not overlap)."""
         self.frames.append(frame)
         self._last_end = frame.start + len(frame.levels) * frame.bit_time
+        fmt = self._dq_fmt
+        if fmt is not None and self._dq_full:
+            dq = self._dq
+            n = fmt.n_bits
+            after = dq[-1] if dq else self.idle_from
+            if self.fast_path and frame.start >= after and frame.levels[0] == 0 and len(frame.levels) == n \
+                    and (frame.fmt is fmt or frame.fmt == fmt) and self._is_clean(self._dq_bit, frame.bit_time, n):
+                dq.append(frame.start + (n - 0.5) * self._dq_bit)
+            else:
+                self._dq_full = False
 
     @property
     def line_free(self) -> float:
@@ -177,6 +194,7 @@ class LineReceiver:
         n = fmt.n_bits
         mask = (1 << fmt.data_bits) - 1
         to_stop = (n - 0.5) * bit_time
+        kept = self._dq_fmt is fmt and self._dq_bit == bit_time
         while frames:
             f = frames[0]
             if self._whole(f, bit_time, fmt, n):
@@ -186,14 +204,22 @@ class LineReceiver:
                 out.append((f.value & mask, False, False, False, done))
                 self.idle_from = done
                 frames.popleft()  # no falling edge after its last sample: nothing more to read in it
+                if kept and self._dq:
+                    self._dq.popleft()  # the first of the kept dones was this frame's
+                else:
+                    kept = False
                 continue
+            kept = False
             char, resume = self._next(bit_time, fmt)
             if char is None or char.done > now:
                 break
             out.append((char.value, char.framing_error, char.parity_error, char.break_, char.done))
             self.idle_from = resume
             self._drop_before(resume)
-        self._drop_before(self.idle_from)
+        if self._drop_before(self.idle_from):
+            kept = False
+        if not kept:
+            self._dq_fmt = None
         return out
 
     def peek_done(self, bit_time: float, fmt: FrameFormat) -> float | None:
@@ -209,35 +235,48 @@ class LineReceiver:
     def clean_dones(self, bit_time: float, fmt: FrameFormat, limit: int) -> tuple[list[float], bool]:
         """When the next characters will be complete, up to ``limit`` of them, as long as each
         is a frame read whole (so it carries no error); and whether that covers every
-        character on the line."""
-        out: list[float] = []
+        character on the line. Kept between calls for the same receiver (identical ``fmt``)."""
         frames = self.frames
         if not frames or limit <= 0:
-            return out, not frames
+            return [], not frames
+        if self._dq_fmt is not fmt or self._dq_bit != bit_time:
+            self._keep_dones(bit_time, fmt)
+        dq = self._dq
+        if len(dq) >= limit:
+            return list(islice(dq, limit)), limit == len(frames)
+        return list(dq), self._dq_full
+
+    def _keep_dones(self, bit_time: float, fmt: FrameFormat) -> None:
+        """The dones of the leading frames read whole by a receiver at ``bit_time``, ``fmt``."""
+        dq: deque[float] = deque()
+        self._dq, self._dq_bit, self._dq_fmt, self._dq_full = dq, bit_time, fmt, False
+        frames = self.frames
         n = fmt.n_bits
         to_stop = (n - 0.5) * bit_time
-        if not self._whole(frames[0], bit_time, fmt, n):
-            return out, False
+        if frames and not self._whole(frames[0], bit_time, fmt, n):
+            return
         previous = self.idle_from
         checked_bit = -1.0
         checked_fmt: FrameFormat | None = None
         for f in frames:  # each frame starts after the previous one's last sample: each is read whole alike
             if f.start < previous or f.levels[0] != 0 or len(f.levels) != n:
-                return out, False
+                return
             if f.bit_time != checked_bit or f.fmt is not checked_fmt:  # a burst's frames share both
                 if (f.fmt is not fmt and f.fmt != fmt) or not self._is_clean(bit_time, f.bit_time, n):
-                    return out, False
+                    return
                 checked_bit, checked_fmt = f.bit_time, f.fmt
             previous = f.start + to_stop
-            out.append(previous)
-            if len(out) >= limit:
-                return out, len(out) == len(frames)
-        return out, True
+            dq.append(previous)
+        self._dq_full = True
 
-    def _drop_before(self, t: float) -> None:
+    def _drop_before(self, t: float) -> bool:
+        """Drop the frames that end by ``t``; whether there were any."""
         frames = self.frames
+        dropped = False
         while frames and frames[0].start + len(frames[0].levels) * frames[0].bit_time <= t:
             frames.popleft()
+            dropped = True
+        return dropped
 
     def _edge_at_or_after(self, t: float) -> tuple[int, int] | None:
         """(frame index, bit index) of the first falling edge at time >= ``t``."""
