@@ -14,7 +14,9 @@ The API, in one place::
     board.advance_to(cycle)                # let peripheral time pass
     board.irq_request, board.fiq_request   # nIRQ / nFIQ asserted by the VIC
     board.sleeping                         # PCON.IDL: nothing to run until an interrupt
-    board.next_event_cycle()               # skip idle time to here (None: nothing scheduled)
+    board.next_event_cycle()               # the next change a read could see (None: nothing scheduled)
+    board.next_irq_cycle()                 # the next cycle an interrupt request may change: run or idle to here
+    board.schedule_changed                 # an access or input moved the above: ask again (the core clears it)
     board.cclk_hz, board.t_ns              # the clock the PLL gives, nanoseconds since reset
     board.scb.memmap, board.scb.mamcr, board.scb.mamtim   # for the core's memory and cycle model
 
@@ -28,7 +30,7 @@ The API, in one place::
     board.take_spi()                       # SPI words for recording
 
 Models, each usable alone with ``read(offset, tick)`` / ``write(offset, value, tick)`` /
-``advance_to(tick)`` / ``next_event()`` / ``irq`` (regs.py): :class:`Vic`, :class:`Timer`,
+``advance_to(tick)`` / ``next_event()`` / ``next_irq_event()`` / ``irq`` (regs.py): :class:`Vic`, :class:`Timer`,
 :class:`Pwm`, :class:`Uart`, :class:`Spi`, :class:`Gpio`, :class:`PinSelect`,
 :class:`SystemControl`. The serial line sampler (:mod:`~emulators.lpc2148.line`) is shared with
 the bench for the device side of a UART.
