@@ -77,16 +77,7 @@ class MatchCounter:
 
     def changed(self) -> None:
         """The registers were written: recompute what depends on them."""
-        interrupt = reset = stop = 0
-        for c in range(self.n_match):
-            bits = (self.mcr >> (3 * c)) & 7
-            if bits & 1:
-                interrupt |= 1 << c
-            if bits & 2:
-                reset |= 1 << c
-            if bits & 4:
-                stop |= 1 << c
-        self._interrupt, self._reset, self._stop = interrupt, reset, stop
+        self._interrupt, self._reset, self._stop = self.masks()
         self._masks_mcr = self.mcr
         self._effect_at = self._irq_at = _UNKNOWN
         self._horizon()
@@ -205,6 +196,16 @@ class MatchCounter:
                 at = None if ahead is None else self.tick + ahead
             self._irq_at = at
         return None if at is None else at - self.tick
+
+    def next_effect_tick(self) -> int | None:
+        """The tick of :meth:`ticks_to_effect` (a model's next event); None: never."""
+        ahead = self.ticks_to_effect()
+        return None if ahead is None else self.tick + ahead
+
+    def next_interrupt_tick(self) -> int | None:
+        """The tick of :meth:`ticks_to_interrupt` (a model's IRQ line can rise only then)."""
+        ahead = self.ticks_to_interrupt()
+        return None if ahead is None else self.tick + ahead
 
     def clone(self) -> MatchCounter:
         """An independent copy of the counter's state."""

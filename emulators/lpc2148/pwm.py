@@ -90,13 +90,11 @@ class Pwm(RegisterFile):
         self.counter.advance_to(tick, self._on_match_cb)
 
     def next_event(self) -> int | None:
-        ahead = self.counter.ticks_to_effect()
-        return None if ahead is None else self.counter.tick + ahead
+        return self.counter.next_effect_tick()
 
     def next_irq_event(self) -> int | None:
         """The tick of the next match that sets an IR bit."""
-        ahead = self.counter.ticks_to_interrupt()
-        return None if ahead is None else self.counter.tick + ahead
+        return self.counter.next_interrupt_tick()
 
     @property
     def irq(self) -> bool:
