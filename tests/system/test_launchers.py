@@ -20,11 +20,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hil.flight.process_tree import TOKEN_ENV
 from hil.flight.run_result import RunResult
 from hil.flight.tickloop import Clock, EndReason
 from hil.record import iter_messages, read_metadata
-from hil.vtime.tree import read_stat
+from tests.proc_token import with_token
 from tests.system.conftest import explain, rig_with_command
 from tests.system.test_determinism import CONTROL_WIRES, TRUTH
 
@@ -86,20 +85,7 @@ def rig_for(tmp_path: Path, name: str) -> Path:
 
 def tree_of_bench(bench_pid: int) -> list[tuple[int, str]]:
     """Live processes started as a flight command by bench ``bench_pid`` (their token), from /proc."""
-    mark = f"{TOKEN_ENV}={bench_pid}-".encode()
-    found = []
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry}/environ", "rb") as f:
-                env = f.read().split(b"\0")
-        except OSError:
-            continue
-        st = read_stat(int(entry))
-        if st is not None and not st.dead and any(v.startswith(mark) for v in env):
-            found.append((int(entry), st.comm))
-    return found
+    return with_token(f"{bench_pid}-")
 
 
 def run_dirs_of(pids: list[tuple[int, str]]) -> set[Path]:

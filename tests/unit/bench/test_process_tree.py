@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from hil.flight.process import FlightProcess
-from hil.flight.process_tree import TOKEN_ENV
 from hil.vtime.tree import read_stat
+from tests.proc_token import with_token
 
 PR_GET_CHILD_SUBREAPER = 37
 PY = sys.executable
@@ -30,20 +30,7 @@ def tree_of(flight: FlightProcess) -> list[int]:
 
 
 def tagged(token: str) -> list[int]:
-    mark = f"{TOKEN_ENV}={token}".encode()
-    found = []
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry}/environ", "rb") as f:
-                env = f.read().split(b"\0")
-        except OSError:
-            continue
-        st = read_stat(int(entry))
-        if mark in env and st is not None and not st.dead:
-            found.append(int(entry))
-    return found
+    return [pid for pid, _ in with_token(token)]
 
 
 def ignores_sigterm(pid: int) -> bool:
