@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import contextlib
 import json
+from collections.abc import AsyncIterator
 from typing import Any
 
 import pytest
@@ -78,6 +80,31 @@ async def stop(run: GatedRun, flight: asyncio.Task[Any]) -> None:
     await asyncio.gather(flight, return_exceptions=True)
 
 
+@contextlib.asynccontextmanager
+async def connected(run: GatedRun, flight: asyncio.Task[Any]) -> AsyncIterator[LiveClient]:
+    """The test's client on ``run``'s server; on the way out it closes, and a run still flying
+    (a failed test) is ended finalized rather than left paused."""
+    try:
+        client = await run.client()
+    except BaseException:
+        await stop(run, flight)
+        raise
+    try:
+        yield client
+    finally:
+        await client.close()
+        await stop(run, flight)
+
+
+async def paused_after(client: LiveClient, run: GatedRun, ticks: int) -> None:
+    """Let the gated run fly ``ticks`` ticks, then wait until it stands paused."""
+    await client.subscribe("/hil/events")
+    await client.advertise(1, STEER_TOPIC, "hil.Steer")
+    await send_json(client, 1, {"command": "step", "ticks": ticks})
+    run.open.set()
+    await client.wait(lambda: live_events(client, "paused"))
+
+
 async def send_json(client: LiveClient, channel_id: int, msg: Any) -> None:
     await client.publish(channel_id, msg if isinstance(msg, bytes) else json.dumps(msg).encode())
 
@@ -85,12 +112,7 @@ async def send_json(client: LiveClient, channel_id: int, msg: Any) -> None:
 async def test_client_sees_steers_and_injects(fly):
     run = GatedRun()
     flight = asyncio.create_task(fly("hover", duration_s=3.0, live=run.config, on_ready=run.on_ready))
-    try:
-        client = await run.client()
-    except BaseException:
-        await stop(run, flight)
-        raise
-    try:
+    async with connected(run, flight) as client:
         info = client.server_info
         assert {"time", "clientPublish", "playbackControl"} <= set(info["capabilities"])
         assert "json" in info["supportedEncodings"]
@@ -136,9 +158,6 @@ async def test_client_sees_steers_and_injects(fly):
         assert 0.0 <= truth.h_m < 5.0
         await send_json(client, 1, {"command": "resume"})
         result = await flight
-    finally:
-        await client.close()
-        await stop(run, flight)
     assert result.end_reason.value == "completed", explain(result)
     recorded = [m for _, _, m in iter_messages(result.log_path, topics=["/hil/events"])]
     assert any(m["kind"] == "live" and m["name"] == "inject" for m in recorded)
@@ -155,41 +174,21 @@ async def test_live_view_and_pause_never_change_the_flight(fly, tmp_path):
     slow = GatedRun(tuple(TOPICS), read_delay_s=0.01)  # reads 100 frames a second: the server drops
     flight = asyncio.create_task(fly("hover", duration_s=3.0, out_dir=tmp_path / "slow", live=slow.config,
                                      on_ready=slow.on_ready))
-    try:
-        client = await slow.client()
-    except BaseException:
-        await stop(slow, flight)
-        raise
-    try:
+    async with connected(slow, flight) as client:
         await client.subscribe(*TOPICS)
         slow.open.set()
         watched = await flight
-    finally:
-        await client.close()
-        await stop(slow, flight)
     assert client.messages["/sim/truth"]  # it did see the flight, slowly
     assert_same_flight(plain, watched)
 
     held = GatedRun()
     flight = asyncio.create_task(fly("hover", duration_s=3.0, out_dir=tmp_path / "held", live=held.config,
                                      on_ready=held.on_ready))
-    try:
-        client = await held.client()
-    except BaseException:
-        await stop(held, flight)
-        raise
-    try:
-        await client.subscribe("/hil/events")
-        await client.advertise(1, STEER_TOPIC, "hil.Steer")
-        await send_json(client, 1, {"command": "step", "ticks": 800})
-        held.open.set()
-        await client.wait(lambda: live_events(client, "paused"))
+    async with connected(held, flight) as client:
+        await paused_after(client, held, 800)
         await asyncio.sleep(2.0)  # the pause itself: the flight code waits these wall seconds
         await send_json(client, 1, {"command": "resume"})
         paused = await flight
-    finally:
-        await client.close()
-        await stop(held, flight)
     assert live_events(client, "paused")[0]["detail"]["t_s"] == pytest.approx(1.9975)
     assert_same_flight(plain, paused)
 
@@ -202,25 +201,13 @@ async def test_a_paused_run_goes_on_when_the_recorder_and_server_die(fly):
 
     run = GatedRun()
     flight = asyncio.create_task(fly("hover", duration_s=1.0, live=run.config, on_ready=run.on_ready))
-    try:
-        client = await run.client()
-    except BaseException:
-        await stop(run, flight)
-        raise
-    try:
-        await client.subscribe("/hil/events")
-        await client.advertise(1, STEER_TOPIC, "hil.Steer")
-        await send_json(client, 1, {"command": "step", "ticks": 40})
-        run.open.set()
-        await client.wait(lambda: live_events(client, "paused"))
+    async with connected(run, flight) as client:
+        await paused_after(client, run, 40)
         me = psutil.Process()
         # the recorder is forked without exec: a child with this process's command line
         [recorder] = [p for p in me.children() if p.cmdline() == me.cmdline()]
         recorder.kill()
         result = await asyncio.wait_for(asyncio.shield(flight), 120)
-    finally:
-        await client.close()
-        await stop(run, flight)
     assert any("the live server ended at t = 0.098 s" in n for n in result.notes), result.notes
     assert result.end_reason.value == "bench error" and "not finalized" in result.message
     part = [n for n in result.notes if "hil recover" in n]
