@@ -241,24 +241,25 @@ int32_t posix_port_write(hal_dev_t dev, const uint8_t *data, size_t n)
     return io_error(dev, "cannot write");
 }
 
-int32_t posix_port_in_waiting(hal_dev_t dev)
+/* A byte count the tty layer keeps for the port (FIONREAD: received; TIOCOUTQ: not yet sent). */
+static int32_t port_queue_count(hal_dev_t dev, unsigned long request)
 {
     int fd = posix_port_fd(dev), n = 0;
     if (fd < 0)
         return HAL_ERR_ABSENT;
-    if (ioctl(fd, FIONREAD, &n) < 0)
+    if (ioctl(fd, request, &n) < 0)
         return io_error(dev, "cannot query");
     return n;
 }
 
+int32_t posix_port_in_waiting(hal_dev_t dev)
+{
+    return port_queue_count(dev, FIONREAD);
+}
+
 int32_t posix_port_out_waiting(hal_dev_t dev)
 {
-    int fd = posix_port_fd(dev), n = 0;
-    if (fd < 0)
-        return HAL_ERR_ABSENT;
-    if (ioctl(fd, TIOCOUTQ, &n) < 0)
-        return io_error(dev, "cannot query");
-    return n;
+    return port_queue_count(dev, TIOCOUTQ);
 }
 
 void posix_port_flush_input(hal_dev_t dev)
