@@ -167,11 +167,13 @@ def _flying(out: Path) -> bool:
     return bool(parts) and parts[0].stat().st_size >= 150_000
 
 
-async def _interrupt(tmp_path: Path, name: str, moment: str, signals: tuple[int, ...]) -> tuple[int, str, list[tuple[int, str]], set[Path]]:
-    """Start ``hil run`` with launcher ``name``, signal it at ``moment``; its status, output,
-    the flight command's processes seen before the signal, and their run directories."""
+async def _interrupt(tmp_path: Path, name: str, moment: str, signals: tuple[int, ...],
+                     rig: Path | None = None) -> tuple[int, str, list[tuple[int, str]], set[Path]]:
+    """Start ``hil run`` with launcher ``name`` (or the given ``rig``), signal it at ``moment``;
+    its status, output, the flight command's processes seen before the signal, and their run
+    directories."""
     out = tmp_path / "logs"
-    proc = _start_cli(rig_for(tmp_path, name), out)
+    proc = _start_cli(rig or rig_for(tmp_path, name), out)
     try:
         if moment == "booting":  # as soon as the flight command has started
             await _until(lambda: tree_of_bench(proc.pid) != [], proc)
@@ -217,13 +219,13 @@ async def test_ctrl_c_ends_a_launchers_tree_too(tmp_path: Path) -> None:
 async def test_a_second_sigterm_exits_at_once_with_130_and_leaves_nothing(tmp_path: Path) -> None:
     """The launcher ignores SIGTERM and lingers after the flight code (a 60 s grace): the first
     signal's stop would take a minute; the second one cuts it short."""
-    rig = rig_for(tmp_path, "sh -c")
-    rig.write_text(rig.read_text().replace("barrier_timeout_s = 0.5", "barrier_timeout_s = 0.5\nstop_grace_s = 60"))
-    (tmp_path / "sh-c" / "trap.sh").write_text('trap "" TERM\n"$@"\nsleep 100\n')
-    rig.write_text(rig.read_text().replace('command = ["sh", "-c", "{python} -m flightcode --config {config}; echo done"]',
-                                           f'command = ["sh", "{tmp_path / "sh-c" / "trap.sh"}", "{{python}}", "-m", '
-                                           '"flightcode", "--config", "{config}"]'))
-    rc, text, seen, dirs = await _interrupt(tmp_path, "sh -c", "flying", (signal.SIGTERM, signal.SIGTERM))
+    trap = tmp_path / "trap.sh"
+    trap.write_text('trap "" TERM\n"$@"\nsleep 100\n')
+    rig = rig_with_command(tmp_path, ["sh", str(trap), *FLIGHT], "trap-rig")
+    text = rig.read_text()
+    assert "barrier_timeout_s = 0.5" in text
+    rig.write_text(text.replace("barrier_timeout_s = 0.5", "barrier_timeout_s = 0.5\nstop_grace_s = 60", 1))
+    rc, text, seen, dirs = await _interrupt(tmp_path, "trap", "flying", (signal.SIGTERM, signal.SIGTERM), rig=rig)
     assert rc == 130, text
     assert dirs and not any(d.exists() for d in dirs)
     logs = list((tmp_path / "logs").glob("*.mcap*"))
