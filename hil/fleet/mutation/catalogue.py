@@ -28,6 +28,17 @@ class Target(_Strict):
     name: str
     tree: str = Field(description="the source tree, relative to the project root")
     operator_modules: tuple[str, ...] = ()
+    #: files outside the tree that building it needs (a C tree's flight config), relative to
+    #: the project root: copied beside the mutant's tree, never mutated
+    context: tuple[str, ...] = ()
+
+    @field_validator("context")
+    @classmethod
+    def _inside(cls, v: tuple[str, ...]) -> tuple[str, ...]:
+        for rel in v:
+            if Path(rel).is_absolute() or ".." in Path(rel).parts:
+                raise ValueError(f"{rel!r} must be a path inside the project")
+        return v
 
 
 class Mutant(_Strict):

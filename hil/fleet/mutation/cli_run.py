@@ -15,6 +15,7 @@ from hil.fleet.campaign_case import finite
 from hil.fleet.mutation import operators
 from hil.fleet.mutation import report as rep
 from hil.fleet.mutation.catalogue import load_catalogue, load_equivalents
+from hil.fleet.mutation.edits import context
 from hil.fleet.mutation.runner import (
     BaselineFailed,
     Plan,
@@ -55,7 +56,8 @@ def _plan(o: dict[str, Any]) -> tuple[Plan, dict[str, str], str]:
     eq = load_equivalents(eq_path, {m.id for m in mutants} | {m.id for m in cat.mutant},
                           lambda: {site.id for site in operators.sites(tree, cat.target.operator_modules)})
     plan = Plan(suite, tree, mutants, list(range(1, o["seeds"] + 1)), mode=o["mode"], matrix=o["matrix"],
-                keep_kills=o["keep_kills"], workers=o["workers"], scheduler=o["scheduler"], executor=o["executor"])
+                keep_kills=o["keep_kills"], workers=o["workers"], scheduler=o["scheduler"], executor=o["executor"],
+                context=context(Path("."), cat.target.context, what=str(cat_path)))
     return plan, eq, cat.target.name
 
 

@@ -12,8 +12,9 @@ from pathlib import Path
 
 from hil.config import ConfigError
 
-_SKIP_DIRS = {"__pycache__", ".mypy_cache", ".pytest_cache"}
-_SKIP_SUFFIXES = {".pyc", ".pyo", ".so", ".pyd", ".c", ".o"}
+#: build products and caches (a C tree's ``build/`` too: a mutant is built from its sources)
+_SKIP_DIRS = {"__pycache__", ".mypy_cache", ".pytest_cache", "build"}
+_SKIP_SUFFIXES = {".pyc", ".pyo", ".so", ".pyd", ".o"}
 
 
 @dataclass(frozen=True)
@@ -34,7 +35,7 @@ def apply_edit(text: str, edit: Edit, *, where: str = "") -> str:
 
 
 def snapshot(tree: Path) -> dict[str, bytes]:
-    """Every source file of ``tree`` (no caches, no compiled modules): relative path -> bytes."""
+    """Every source file of ``tree`` (no caches, no build products): relative path -> bytes."""
     if not tree.is_dir():
         raise ConfigError(f"{tree}: the source tree does not exist")
     out: dict[str, bytes] = {}
@@ -42,6 +43,18 @@ def snapshot(tree: Path) -> dict[str, bytes]:
         rel = p.relative_to(tree)
         if p.is_file() and not (set(rel.parts) & _SKIP_DIRS) and p.suffix not in _SKIP_SUFFIXES:
             out[rel.as_posix()] = p.read_bytes()
+    return out
+
+
+def context(root: Path, paths: tuple[str, ...], *, what: str = "") -> dict[str, bytes]:
+    """Files outside the tree that building it needs (``[target] context``), unmutated:
+    path relative to ``root`` -> bytes; ConfigError naming a missing one."""
+    out: dict[str, bytes] = {}
+    for rel in paths:
+        p = root / rel
+        if not p.is_file():
+            raise ConfigError(f"{what}: target.context: no such file {p}")
+        out[rel] = p.read_bytes()
     return out
 
 

@@ -140,12 +140,15 @@ class Plan:
     scheduler: str | None = None
     executor: Executor = "auto"
     timeout_factor: float = 10.0
+    #: project files the tree's build needs (``[target] context``): path -> bytes, unmutated
+    context: dict[str, bytes] = field(default_factory=dict)
 
 
 def _task(plan: Plan, files: dict[str, bytes], rig: dict[str, bytes], case_id: str, mutant: str,
           scenarios: list[Path], seeds: list[int], first_kill: bool, stop_file: Path) -> dict[str, Any]:
     longest = max(_duration_s(s) for s in scenarios)
     return {"case_id": case_id, "mutant": mutant, "tree_name": plan.tree.name, "files": files,
+            "context_files": plan.context,
             "rig_name": plan.suite.rig.name, "rig_files": rig,
             "scenarios": [{"name": s.stem, "text": s.read_bytes()} for s in scenarios], "seeds": seeds,
             "stop_at_first_kill": first_kill, "keep_kills": plan.keep_kills, "mode": plan.mode,

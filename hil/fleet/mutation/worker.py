@@ -8,7 +8,7 @@ happens. Each scenario is one :func:`hil.fleet.campaign_case.run_case` (its own 
 the working directory at the copy, so the rig's ``[flight] command`` runs the mutant.
 
 ``task`` keys: ``case_id``, ``mutant``, ``tree_name``, ``files`` (relative path -> bytes, the
-edits applied), ``rig_name``, ``rig_files`` (name -> bytes: the rig and the files beside it it
+edits applied), ``context_files`` (project-relative path -> bytes, beside the tree), ``rig_name``, ``rig_files`` (name -> bytes: the rig and the files beside it it
 names), ``scenarios`` (list of {name, text}), ``seeds``, ``stop_at_first_kill``,
 ``keep_kills``, ``mode``, ``timeout_s`` (per flight), ``stop_file``.
 """
@@ -60,6 +60,7 @@ def run_mutant(task: dict[str, Any]) -> dict[str, Any]:
     runs: list[dict[str, Any]] = []
     try:
         materialize(task["files"], root / "src" / task["tree_name"])
+        materialize(task.get("context_files", {}), root / "src")
         materialize(task["rig_files"], root / "rig")
         materialize({f"{s['name']}.toml": s["text"] for s in task["scenarios"]}, root / "scenarios")
         for s in task["scenarios"]:

@@ -149,3 +149,11 @@ def test_equivalents_need_a_reason_and_a_known_mutant(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="no such mutant: zz"):
         load_equivalents(p, {"a-b"}, set)
     assert load_equivalents(tmp_path / "missing.toml", {"a-b"}) == {}
+
+
+@pytest.mark.parametrize("rel", ["../rigs/fc.toml", "/etc/passwd"])
+def test_context_outside_the_project_names_the_key(tmp_path: Path, rel: str) -> None:
+    p = tmp_path / "cat.toml"
+    p.write_text(f'[target]\nname = "x"\ntree = "src"\ncontext = ["{rel}"]\n' + _OK)
+    with pytest.raises(ConfigError, match=r"target\.context"):
+        load_catalogue(p)

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from hil.config import ConfigError
-from hil.fleet.mutation.edits import Edit, apply_edit, diff, edited, materialize, snapshot
+from hil.fleet.mutation.edits import Edit, apply_edit, context, diff, edited, materialize, snapshot
 
 
 def test_apply_edit_needs_exactly_one_occurrence() -> None:
@@ -41,3 +41,25 @@ def test_snapshot_materialize_and_diff(tmp_path: Path) -> None:
 def test_snapshot_of_a_missing_tree(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="does not exist"):
         snapshot(tmp_path / "nope")
+
+
+def test_a_c_trees_snapshot_has_its_sources_and_no_build(tmp_path: Path) -> None:
+    """A C flight code's sources and Makefile travel; its build/ and objects do not (a mutant
+    is built from its own sources)."""
+    src = tmp_path / "fw"
+    (src / "src").mkdir(parents=True)
+    (src / "build" / "host").mkdir(parents=True)
+    (src / "Makefile").write_text("all:\n")
+    (src / "src" / "a.c").write_text("int a;\n")
+    (src / "src" / "a.h").write_text("extern int a;\n")
+    (src / "src" / "a.o").write_bytes(b"\0")
+    (src / "build" / "host" / "fc").write_bytes(b"\0")
+    assert sorted(snapshot(src)) == ["Makefile", "src/a.c", "src/a.h"]
+
+
+def test_context_files_travel_unmutated_and_a_missing_one_is_named(tmp_path: Path) -> None:
+    (tmp_path / "rigs").mkdir()
+    (tmp_path / "rigs" / "fc.toml").write_text("[x]\n")
+    assert context(tmp_path, ("rigs/fc.toml",)) == {"rigs/fc.toml": b"[x]\n"}
+    with pytest.raises(ConfigError, match=r"cat.toml: target.context: no such file .*rigs/gone.toml"):
+        context(tmp_path, ("rigs/gone.toml",), what="cat.toml")
