@@ -15,10 +15,12 @@ bool flat_line_init(flat_line_t *fl, uint16_t n, float min_std)
     return true;
 }
 
-/* The sums afresh around the window's mean (the ring must be full). */
+/* The sums afresh around the window's mean (the ring must be full), and the turn's sums of
+ * the values that entered since the ring last turned (ring[0..i), all n when i is 0). */
 static void flat_line_resum(flat_line_t *fl)
 {
     const uint16_t n = fl->n;
+    const uint16_t turn = fl->i == 0u ? n : fl->i;
     const float r0 = fl->ring[0];
     float dsum = 0.0f;
     for (uint16_t k = 0; k < n; k++) {
@@ -31,6 +33,10 @@ static void flat_line_resum(flat_line_t *fl)
         float d = fl->ring[k] - fl->ref;
         s1 += d;
         s2 += d * d;
+        if (k + 1u == turn) {
+            fl->t1 = s1;
+            fl->t2 = s2;
+        }
     }
     fl->s1 = s1;
     fl->s2 = s2;
@@ -41,7 +47,14 @@ bool flat_line_add(flat_line_t *fl, float x)
 {
     const uint16_t n = fl->n;
     if (fl->i == 0u && fl->full) {
-        flat_line_resum(fl); /* a turn of the ring: no drift over a flight */
+        /* a turn of the ring: the window is the values that entered during the last turn,
+         * whose sums were kept as they came (each added once, never taken back): sums afresh
+         * with no drift over a flight, without a pass over the ring in this reading's time */
+        fl->s1 = fl->t1;
+        fl->s2 = fl->t2;
+        fl->s2_peak = fl->t2;
+        fl->t1 = 0.0f;
+        fl->t2 = 0.0f;
     } else if (fl->i == 0u) {
         fl->ref = x;
     }
@@ -53,6 +66,8 @@ bool flat_line_add(flat_line_t *fl, float x)
     }
     fl->s1 += d;
     fl->s2 += d * d;
+    fl->t1 += d;
+    fl->t2 += d * d;
     fl->ring[fl->i] = x;
     fl->i++;
     if (fl->i == n) {

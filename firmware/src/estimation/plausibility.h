@@ -46,7 +46,8 @@ typedef struct {
 /*
  * Is a signal a flat line? The standard deviation of its last n values below min_std. O(1) a
  * value: running sums over a ring, taken relative to a reference value (no cancellation at
- * 1e5 Pa in single precision) and summed afresh at every turn of the ring (no drift), and
+ * 1e5 Pa in single precision) and summed afresh at every turn of the ring (no drift: the sums
+ * of the values that entered during a turn are kept beside, so a turn costs no pass), and
  * also when the sum of squares falls below FLAT_LINE_RESUM_RATIO of its peak since the last
  * fresh sum or the reference lies far from the window's mean (beyond 0.7 of the root mean
  * square deviation): an outlier (a flipped high bit, tens of kPa) leaving the window would
@@ -63,6 +64,7 @@ typedef struct {
     float ref;       /* the level the sums are taken relative to */
     float s1, s2;    /* sum of (v - ref), sum of (v - ref)^2 over the window */
     float s2_peak;   /* the largest s2 since the sums were last made afresh */
+    float t1, t2;    /* the sums of the values that entered since the ring last turned */
     float min_var;   /* min_std^2 */
     bool flat;       /* the last verdict of flat_line_add (false until the window is full) */
 } flat_line_t;
