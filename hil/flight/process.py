@@ -20,7 +20,7 @@ import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from hil.flight.process_tree import TOKEN_ENV, TreeOwner
+from hil.flight.process_tree import TOKEN_ENV, TreeOwner, end_cancelled_start
 from hil.flight.signals import on_hard_exit
 from hil.vtime.tree import ProcState
 
@@ -116,7 +116,10 @@ class FlightProcess:
                 preexec_fn=_die_with_parent,
             )
         except BaseException:
-            TreeOwner.release()
+            try:
+                await end_cancelled_start(token)
+            finally:
+                TreeOwner.release()
             raise
         self.proc = asyncio.subprocess.Process(transport, protocol, loop)
         self.owner = TreeOwner(self.proc.pid, token)

@@ -34,6 +34,49 @@ KILL_WAIT_S = 2.0
 _owners = [0]  #: trees owned by this process now: it is the subreaper while there is one
 
 
+def carrying(token: str) -> list[int]:
+    """Every live process, anywhere in /proc, whose environment carries this tree's token."""
+    mark = f"{TOKEN_ENV}={token}".encode()
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/environ", "rb") as f:
+                env = f.read().split(b"\0")
+        except OSError:
+            continue
+        st = read_stat(int(entry))
+        if st is not None and not st.dead and mark in env:
+            found.append(int(entry))
+    return found
+
+
+async def end_cancelled_start(token: str) -> None:
+    """A start cancelled while asyncio was still starting the command (a Ctrl-C or SIGTERM at
+    that moment): asyncio killed the command's own process, but not what it had started
+    already (``make``'s flight code), which the bench then owned without knowing. SIGKILL to
+    every process carrying the token until none is left (``KILL_WAIT_S`` at most), reaping
+    those reparented to the bench."""
+    me = os.getpid()
+    give_up = clock.monotonic_ns() + int(KILL_WAIT_S * 1e9)
+    seen: set[int] = set()
+    while True:
+        pids = carrying(token)
+        seen.update(pids)
+        for pid in pids:
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.kill(pid, signal.SIGKILL)
+        for pid in children_of(me) & seen:  # a zombie's environment can no longer be read
+            st = read_stat(pid)
+            if st is not None and st.dead:
+                with contextlib.suppress(ChildProcessError):
+                    os.waitpid(pid, os.WNOHANG)
+        if not pids or clock.monotonic_ns() >= give_up:
+            return
+        await asyncio.sleep(POLL_S)
+
+
 class TreeOwner:
     """The processes of one start of the flight command (``root``: the command's own pid)."""
 

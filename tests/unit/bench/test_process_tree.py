@@ -117,3 +117,29 @@ async def test_a_start_that_fails_gives_the_subreaper_back(tmp_path: Path) -> No
     with pytest.raises(FileNotFoundError):
         await flight.start()
     assert subreaper() == before == 0
+
+
+async def test_a_start_cancelled_while_asyncio_starts_the_command_leaves_nothing(tmp_path: Path,
+                                                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """A Ctrl-C or SIGTERM while asyncio is still connecting the command's pipes: asyncio kills
+    the command's own process and re-raises, but what the command had started already (make's
+    flight code) outlived it, owned by the bench with nobody to end it, and the run hung. The
+    cancel is played here where asyncio takes it, once the launcher's children are up."""
+    loop = asyncio.get_running_loop()
+    real = loop.subprocess_exec
+
+    async def cancelled_while_connecting(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        transport, _ = await real(*args, **kwargs)
+        give_up = loop.time() + 30
+        while len(with_token(f"{os.getpid()}-")) < 3:
+            assert loop.time() < give_up
+            await asyncio.sleep(0.02)
+        transport.close()  # what asyncio does on a cancel there: SIGKILL to the command's own process
+        raise asyncio.CancelledError
+
+    monkeypatch.setattr(loop, "subprocess_exec", cancelled_while_connecting)
+    flight = FlightProcess(["sh", "-c", f"{STUBBORN} & {SLEEPER} & wait"], cwd=tmp_path, on_line=lambda s, l: None)
+    with pytest.raises(asyncio.CancelledError):
+        await flight.start()
+    assert with_token(f"{os.getpid()}-") == []
+    assert subreaper() == 0
