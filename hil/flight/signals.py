@@ -8,6 +8,9 @@ that: what the run registered with :func:`on_hard_exit` (SIGKILL to the flight c
 process tree, removal of the run directory) is done at once and the process exits with
 status 130; the recorder child then closes the log as aborted, or leaves a ``.part`` file
 that ``hil recover`` salvages.
+
+SIGQUIT (Ctrl-\\ in a terminal) prints where each of the run's tasks waits, on stderr, and the
+run goes on: a run that seems to hang says what it waits for.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ import os
 import signal
 import sys
 from collections.abc import Awaitable, Callable
-from typing import TypeVar
+from typing import TextIO, TypeVar
 
 _T = TypeVar("_T")
 
@@ -55,6 +58,17 @@ class HardExit:
 _HARD_EXIT: contextvars.ContextVar[HardExit | None] = contextvars.ContextVar("hil_hard_exit", default=None)
 
 
+def dump_tasks(file: TextIO | None = None) -> None:
+    """Where each task of the running loop waits (its stack), on ``file`` (default stderr)."""
+    out = file or sys.stderr
+    tasks = asyncio.all_tasks(asyncio.get_running_loop())
+    print(f"hil: {len(tasks)} tasks (SIGQUIT)", file=out)
+    for task in sorted(tasks, key=lambda t: t.get_name()):
+        print(f"--- {task.get_name()}: {task.get_coro()!r}", file=out)
+        task.print_stack(file=out)
+    out.flush()
+
+
 def on_hard_exit(action: Callable[[], None]) -> Callable[[], None]:
     """Have ``action`` done if a second signal makes this run's process exit at once; returns
     the call that takes it back. Outside ``cancelled_by_signals`` it does nothing."""
@@ -83,6 +97,7 @@ async def cancelled_by_signals(aw: Awaitable[_T]) -> _T:
 
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, on_signal)
+    loop.add_signal_handler(signal.SIGQUIT, dump_tasks)
     try:
         return await aw
     except asyncio.CancelledError:
@@ -93,6 +108,6 @@ async def cancelled_by_signals(aw: Awaitable[_T]) -> _T:
         print("interrupted before the flight started", file=sys.stderr)
         raise SystemExit(HARD_EXIT_STATUS) from None
     finally:
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGQUIT):
             loop.remove_signal_handler(sig)
         _HARD_EXIT.reset(token)

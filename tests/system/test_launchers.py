@@ -148,6 +148,10 @@ async def test_each_launcher_flies_as_the_direct_command(fly, tmp_path: Path, na
     assert tree_of_bench(os.getpid()) == []  # its whole tree ended with the run
 
 
+#: wall seconds a signalled run has to end (its stop grace is 3 s; under pytest-timeout's 120)
+END_WITHIN_S = 60
+
+
 def _start_cli(rig: Path, out: Path) -> subprocess.Popen[bytes]:
     return subprocess.Popen([sys.executable, "-m", "hil.cli", "run", str(rig), "-s", "hover", "--out", str(out), "-q"],
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
@@ -185,7 +189,15 @@ async def _interrupt(tmp_path: Path, name: str, moment: str, signals: tuple[int,
             if k:
                 await asyncio.sleep(0.2)
             proc.send_signal(sig)
-        text = proc.communicate(timeout=120)[0].decode(errors="replace")
+        try:
+            text = proc.communicate(timeout=END_WITHIN_S)[0].decode(errors="replace")
+        except subprocess.TimeoutExpired:
+            proc.send_signal(signal.SIGQUIT)  # hil run prints where its tasks wait: into the failure
+            try:
+                said = proc.communicate(timeout=10)[0].decode(errors="replace")
+            except subprocess.TimeoutExpired:
+                said = "(nothing: it did not answer SIGQUIT either)"
+            raise AssertionError(f"hil run still ran {END_WITHIN_S} s after the signal; it said:\n{said[-8000:]}") from None
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)

@@ -1,0 +1,41 @@
+"""SIGQUIT during ``hil run`` (hil/flight/signals.py): each task's stack on stderr, and the run
+goes on; outside a run the default action is back."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import signal
+
+import pytest
+
+from hil.flight import signals
+
+
+async def test_sigquit_says_where_the_run_waits_and_it_goes_on(monkeypatch: pytest.MonkeyPatch,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    dumped = asyncio.Event()
+    real = signals.dump_tasks
+
+    def dump_and_say() -> None:
+        real()
+        dumped.set()
+
+    monkeypatch.setattr(signals, "dump_tasks", dump_and_say)
+    gate = asyncio.Event()
+
+    async def waits_at_the_gate() -> int:
+        await gate.wait()
+        return 7
+
+    async def quit_then_open() -> None:
+        os.kill(os.getpid(), signal.SIGQUIT)
+        await dumped.wait()
+        gate.set()
+
+    opener = asyncio.create_task(quit_then_open(), name="opener")
+    assert await signals.cancelled_by_signals(waits_at_the_gate()) == 7  # not cancelled, not ended
+    await opener
+    err = capsys.readouterr().err
+    assert "(SIGQUIT)" in err and "waits_at_the_gate" in err and "--- opener" in err, err
+    assert signal.getsignal(signal.SIGQUIT) == signal.SIG_DFL
