@@ -226,11 +226,25 @@ class ControlBlock:
         return {s.pid for s in self.slots if s.tid}
 
     def clear_process(self, pid: int) -> None:
-        """Free the slots of a process that is gone (killed threads never release theirs)."""
+        """Free the slots of a process that is gone (killed threads never release theirs).
+
+        A slot is judged by its thread, not by its ``pid`` field: a thread claiming a slot
+        sets ``tid`` first and ``pid`` after, so for a moment a live thread's slot still
+        names the process that had it before, one that may be gone."""
         for s in self.slots:
-            if s.tid and s.pid == pid:
-                s.state = abi.State.FREE
-                s.tid = 0
+            tid = s.tid
+            if tid and s.pid == pid and not pid_alive(tid):
+                self.free_slot(s, tid)
+
+    def clear_thread(self, view: ThreadView) -> None:
+        """Free the slot of ``view``'s thread, which is gone, if that thread still holds it."""
+        self.free_slot(self.slots[view.index], view.tid)
+
+    @staticmethod
+    def free_slot(slot: abi.Slot, tid: int) -> None:
+        if slot.tid == tid:
+            slot.state = abi.State.FREE
+            slot.tid = 0
 
     def wake(self, index: int) -> None:
         """End thread ``index``'s wait (it re-checks its fds, then its deadline)."""

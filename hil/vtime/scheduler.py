@@ -240,8 +240,10 @@ class VirtualClock:
             return False  # not attached yet, or restarting: nothing to schedule
         for t in threads:
             if not t.blocked:
-                if t.pid != root and not pid_alive(t.pid):  # a zombie: _clear_exited
-                    self.ctl.clear_process(t.pid)  # a process of the tree that is gone
+                # a thread of the tree that is gone (a zombie's: _clear_exited); by its tid,
+                # as a thread claiming a slot names its process only after (clear_process)
+                if t.pid != root and not pid_alive(t.tid):
+                    self.ctl.clear_thread(t)
                     continue
                 return False
         # the descriptors its waits are on, ours only (the bench does not control when any
@@ -280,13 +282,26 @@ class VirtualClock:
             return False  # it is waking up (or about to) on bytes already there
         if not all(self.ctl.seq(t.index) == t.seq for t in threads):
             return False
-        if self._tree is not None and not self._tree.all_in_slots(threads):  # last: /proc reads
-            self._settling = True  # a process the shim cannot see: nothing says when it exits
-            return False
+        if self._tree is not None:
+            if not self._tree.all_in_slots(threads):  # last: /proc reads
+                self._settling = True  # a process the shim cannot see: nothing says when it exits
+                return False
+            # The walk read /proc after the slots: a launcher woken meanwhile (its child reaped,
+            # the next one forked after the walk read its children) makes the walk's "no child
+            # outside the slots" stale, so the slots must still say what they said.
+            if not self._unchanged(threads):
+                self._settling = True
+                return False
         if not any(t.confirmed and t.deadline_ns is not None for t in threads):
             # a timed futex wait ends on the host clock without telling anyone: never cached
             self._idle_at, self._snapshot = (self._events, self._written.count), threads
         return True
+
+    def _unchanged(self, threads: list[ThreadView]) -> bool:
+        """Every slot of ``threads`` is as read, and every wait the kernel must confirm is still
+        asleep there (woken, a thread is runnable before it publishes anything)."""
+        ctl, states = self.ctl, self._states
+        return all(ctl.seq(t.index) == t.seq and (not t.confirmed or states.asleep(t.pid, t.tid)) for t in threads)
 
     async def idle(self, running: Callable[[], bool]) -> bool:
         """Wait until the flight code is idle; False if it is not running (exited, killed).
@@ -367,10 +382,11 @@ class VirtualClock:
         return True
 
     def _clear_exited(self) -> None:
-        """Free the slots of the tree's zombies (killed, never freed): a /proc read each, not inline."""
-        for pid in {t.pid for t in self.ctl.threads() if not t.blocked and t.pid != self.pid}:
-            if exited(pid):
-                self.ctl.clear_process(pid)
+        """Free the slots of the tree's zombies (killed, never freed): a /proc read each, not
+        inline. Judged by each slot's thread (see ``ControlBlock.clear_process``)."""
+        for t in self.ctl.threads():
+            if not t.blocked and t.pid != self.pid and exited(t.tid):
+                self.ctl.clear_thread(t)
                 self._events += 1
 
     def _look(self, watch: hidden.StallWatch) -> None:
