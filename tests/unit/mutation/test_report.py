@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 from rich.console import Console
@@ -81,3 +82,13 @@ def test_outputs(tmp_path: Path) -> None:
     assert "catalogue: 2 killed, 2 survived, 1 equivalent, 1 errors of 6: score 50.0 %" in text
     assert "only a calibrated timing check could catch: t1 (survived)" in text
     assert "target catalogue >= 95 %: NOT met" in text and "target operator >= 80 %: met" in text
+
+
+def test_the_heatmap_of_one_mutant_fits_its_labels(tmp_path: Path) -> None:
+    """A one-mutant campaign: the rotated scenario names fit (no tight_layout warning)."""
+    r = _report()
+    r["mutants"] = r["mutants"][:1]
+    r["scenarios"] = [*r["scenarios"], "fault-baro-port-blocked-on-the-longest-name"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rep.plot_heatmap(r, tmp_path / "h.png")
