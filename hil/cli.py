@@ -74,6 +74,7 @@ def run(
     require_vt: Annotated[bool, typer.Option("--require-virtual-time", help="Lockstep: exit 2 rather than fall back to the host clock (shim missing, static binary, LD_PRELOAD dropped); also the rig's [flight] require_virtual_time.")] = False,
     attach: Annotated[list[str] | None, typer.Option("--attach", help="PORT=DEVICE: this port on a real serial device or URL (/dev/ttyUSB0, socket://host:port, rfc2217://host:port); repeatable; realtime only.")] = None,
     live: LiveOpt = False, live_addr: LiveAddrOpt = None, live_topics: LiveTopicsOpt = None,
+    gdb: Annotated[int | None, typer.Option("--gdb", metavar="PORT", min=0, max=65535, help="A board rig ([flight] board): a GDB remote port on the emulated core (0: a free one, printed); the run waits for the debugger before the firmware's first instruction and holds while it holds the core.")] = None,
 ) -> None:
     """Fly the flight code against the emulated vehicle and write one MCAP log.
 
@@ -135,8 +136,7 @@ def run(
             rig_obj, scenario_obj, mode=run_mode, seed=seed, duration_s=duration, out_dir=out,
             record=not no_record, progress=progress, scenario_source=source,
             virtual_time=False if wall_clock else None, require_virtual_time=require_vt or None, stress_cpu=stress_cpu,
-            stress_adc_delay_us=stress_adc_delay_us, attach=attach_map, started_ns=started_ns, live=live_cfg,
-        ))
+            stress_adc_delay_us=stress_adc_delay_us, attach=attach_map, started_ns=started_ns, live=live_cfg, gdb_port=gdb))
 
     try:
         with progress.bar:

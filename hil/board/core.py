@@ -102,6 +102,8 @@ class Core:
         self.interrupts = {"irq": 0, "fiq": 0, "swi": 0}
         self._irq_seen_at: int | None = None
         self._slice_event: int | None = None
+        #: stopped for a debugger (hil/board/debug.py): a run returns at once, short of its target
+        self.halted = False
         self.reset()
 
     # -- state ------------------------------------------------------------------------------------
@@ -158,7 +160,7 @@ class Core:
     # -- running --------------------------------------------------------------------------------
     def run_until(self, target: int) -> None:
         """Run the program until its cycle count reaches ``target`` (it may pass it by the
-        rest of a basic block)."""
+        rest of a basic block), or until a debugger halts it (``halted``)."""
         self._run(target, UNTIL)
 
     def run_to(self, address: int, limit: int) -> int:
@@ -173,7 +175,7 @@ class Core:
     def _run(self, target: int, stop_pc: int) -> None:
         s = self.counter.state
         bus = self.bus
-        while s.cycles < target:
+        while s.cycles < target and not self.halted:
             if self.pc == stop_pc:
                 break
             bus.advance_to(s.cycles)

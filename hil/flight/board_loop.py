@@ -34,6 +34,7 @@ from hil import clock
 from hil.analysis.timing_stream import LatencySample, StreamingStats
 from hil.board.errors import BoardError
 from hil.flight.board_devices import BoardDevices
+from hil.flight.board_gdb import GdbServer
 from hil.flight.board_probes import Answer, Iteration
 from hil.flight.tick import BootError, Clock, EndReason, SlackWork, TickGate, TickHook, TickStats
 
@@ -84,6 +85,8 @@ class BoardTickLoop:
         self._answers: deque[Answer] = deque()
         self._commands: deque[int] = deque()
         self._mark = (0, 0)  #: (cycle, idle cycles) at the last tick's end
+        #: ``hil run --gdb``: the tick holds while the debugger holds the core (hil/flight/board_gdb.py)
+        self.gdb: GdbServer | None = None
 
     # -- boot -------------------------------------------------------------------------------------
     async def boot(self) -> None:
@@ -95,7 +98,7 @@ class BoardTickLoop:
         n = 0
         while True:
             self.t_ns = devices.t_ns = t
-            if not self._advance(t):
+            if not await self._advance_held(t):
                 raise BootError(f"{self.exit_text()}; not configured: " + ", ".join(devices.unconfigured()))
             devices.advance_boot(t)
             if not devices.unconfigured():
@@ -112,9 +115,26 @@ class BoardTickLoop:
         wiring.probes.restart()
         self._mark = (wiring.cycles, wiring.core.idle_cycles)
 
+    async def _advance_held(self, t_ns: int) -> bool:
+        """:meth:`_advance`, held wherever a debugger halts the core on the way (its
+        interrupt is taken at the tick's start)."""
+        gdb = self.gdb
+        if gdb is None:
+            return self._advance(t_ns)
+        core = self.wiring.core
+        gdb.debugger.take_interrupt()
+        while True:
+            if core.halted:
+                await gdb.hold()
+                if gdb.killed:
+                    return False
+            running = self._advance(t_ns)
+            if not running or not core.halted:
+                return running
+
     def _advance(self, t_ns: int) -> bool:
         """The firmware to ``t_ns``; False if it stopped (ended or faulted)."""
-        if self.fault is not None or self.wiring.stopped:
+        if self.fault is not None or self.wiring.stopped or (self.gdb is not None and self.gdb.killed):
             return False
         try:
             self.devices.advance_to(t_ns)
@@ -132,6 +152,8 @@ class BoardTickLoop:
         """Why the firmware is not running, in words."""
         if self.fault is not None:
             return f"the firmware faulted: {self.fault}"
+        if self.gdb is not None and self.gdb.killed:
+            return "the debugger ended the firmware (GDB kill)"
         reason = self.wiring.core.semihost.exit_reason
         return f"the firmware stopped (semihosting SYS_EXIT, reason {reason:#x})" if reason is not None else \
             "the firmware runs"
@@ -157,7 +179,7 @@ class BoardTickLoop:
                 await self.tick_gate()
             elif k % YIELD_EVERY == 0:
                 await asyncio.sleep(0)
-            running = self._advance(t_ns)
+            running = await self._advance_held(t_ns)
             self._tick_figures(k)
             self._settle(final=not running)
             if not running:
@@ -174,7 +196,7 @@ class BoardTickLoop:
             if emitted or due:
                 self._pending.append(_Sample(k, t_ns, self.wiring.cycles, emitted, due, clock.monotonic_ns(),
                                              devices.sample_counter if emitted else -1))
-            if k == last and self._advance(t_ns + tick_ns):
+            if k == last and await self._advance_held(t_ns + tick_ns):
                 # the last sample's answer: the firmware runs one tick on (the plant does not),
                 # settled before this tick's recording so that the log has every sample
                 self._settle(final=True)

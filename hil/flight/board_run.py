@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,7 @@ from hil.board.errors import FirmwareError
 from hil.config import ConfigError
 from hil.flight import run_setup
 from hil.flight.board_devices import BoardDevices
+from hil.flight.board_gdb import GdbServer
 from hil.flight.board_image import firmware_elf, flight_config_text, install_config, sha256
 from hil.flight.board_loop import BoardTickLoop
 from hil.flight.board_record import BoardRecorder
@@ -97,6 +99,20 @@ def check_board_run(rig: Any, mode: Mode, attach: Any) -> None:
                           "(the devices are wired to the emulated board's pins)")
 
 
+async def _gdb_server(stack: contextlib.AsyncExitStack, wiring: BoardWiring, run: Any, elf: Path) -> GdbServer:
+    """The debugger's port, announced on stderr (the run waits there before the first instruction)."""
+    server = GdbServer(wiring.core, port=run.gdb_port)
+    try:
+        port = await server.start()
+    except OSError as exc:
+        raise ConfigError(f"--gdb {run.gdb_port}: cannot listen on 127.0.0.1:{run.gdb_port}: {exc.strerror}") from None
+    stack.push_async_callback(server.close)
+    print(f"hil: the board waits for GDB on 127.0.0.1:{port}: gdb-multiarch {elf} -ex 'target remote :{port}'",
+          file=sys.stderr, flush=True)
+    run.note(f"GDB port 127.0.0.1:{port} (the tick held while the debugger held the core)")
+    return server
+
+
 def _on_line(logger_ref: list[Any], flight: BoardFlight) -> Callable[[str], None]:
     def on_line(line: str) -> None:
         flight.last_stderr.append(line)
@@ -145,6 +161,8 @@ async def acquire_board(stack: contextlib.AsyncExitStack, run: Any, record_step:
     loop = BoardTickLoop(board_devices, tick_ns=rig.tick_ns, duration_ns=run.duration_ns,
                          boot_timeout_s=rig.flight.boot_timeout_s, before_tick=runner.before_tick)
     board_rec = BoardRecorder(loop, logger.out)
+    if run.gdb_port is not None:
+        loop.gdb = await _gdb_server(stack, wiring, run, elf)
 
     def after_tick(k: int, t_ns: int) -> None:
         board_rec.after_tick(k, t_ns)

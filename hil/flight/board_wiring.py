@@ -132,10 +132,11 @@ class BoardWiring:
 
     # -- running -------------------------------------------------------------------------------------
     def run_to(self, t_ns: int) -> None:
-        """Run the firmware to sim ``t_ns`` (see the module docstring); stops early if it ends."""
+        """Run the firmware to sim ``t_ns`` (see the module docstring); stops early if it ends
+        or a debugger halts the core."""
         core, time, edges = self.core, self.bus.time, self._edges
         end = t_ns + self.offset_ns
-        while not self.stopped:
+        while not self.stopped and not core.halted:
             now = time.ns_at(core.cycles)
             if now >= end:
                 break

@@ -105,6 +105,7 @@ async def run_flight_async(
     started_ns: int | None = None,
     keep_trace: bool = False,
     live: LiveConfig | None = None,
+    gdb_port: int | None = None,
 ) -> RunResult:
     """Run one flight (see module docstring). Never raises for run-time failures; a scenario
     the rig refuses raises :class:`ConfigError` before anything is created, and a resource
@@ -122,7 +123,8 @@ async def run_flight_async(
     plugin's ``bench.signal``; 8 bytes a value, about 6 MB per flight minute). ``live``: serve the
     run to Foxglove and take its steering (hil/live, docs/live.md; needs ``record``). Without it the
     bench's memory does not grow with the flight's length: the criteria stream
-    (hil/analysis/criteria_stream.py)."""
+    (hil/analysis/criteria_stream.py). ``gdb_port``: a board run waits for GDB on this TCP port
+    (0: a free one, announced on stderr) and holds while it holds the core (hil/flight/board_gdb.py)."""
     # The recorder's writer thread must not hold the GIL for the default 5 ms while the
     # tick waits on a pty (hil/record measurements: wake-ups 2.2 ms late otherwise).
     sys.setswitchinterval(SWITCH_INTERVAL_S)
@@ -136,6 +138,11 @@ async def run_flight_async(
                require_vt=rig.flight.require_virtual_time if require_virtual_time is None else require_virtual_time)
     if rig.flight.board:
         check_board_run(rig, mode, attach)
+    elif gdb_port is not None:
+        raise ConfigError(f"{rig.path}: --gdb: the rig's flight code is a process, not the emulated board "
+                          "([flight] board); debug it with its own debugger as the launcher (docs/time.md, "
+                          "`gdb --batch -ex run --args ...`)")
+    run.gdb_port = gdb_port
     attachments = resolve_attachments(rig.ports, attach or {}, PORTS, command="run")
     refuse_lockstep(attachments, mode.value)
     rt = rtsched.for_rig(rig, realtime=mode is Mode.REALTIME)  # "fifo" refused: nothing is created yet

@@ -56,6 +56,8 @@ class RunState:
     vt_refused: VirtualTimeRequired | None = None
     steering: Steering | None = None  #: --live: the app's pause, step, speed and injects
     board: BoardRun | None = None  #: a board run's loop, figures and criteria (hil/flight/board_run.py)
+    #: ``--gdb``: the TCP port of the board's debugger (0: any free one); None: no debugger
+    gdb_port: int | None = None
 
     def note(self, text: str) -> None:
         self.notes.append(text)

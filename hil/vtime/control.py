@@ -18,6 +18,7 @@ import ctypes
 import errno
 import mmap
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
@@ -235,6 +236,19 @@ class ControlBlock:
             tid = s.tid
             if tid and s.pid == pid and not pid_alive(tid):
                 self.free_slot(s, tid)
+
+    def clear_gone(self, root: int | None, gone: Callable[[int], bool]) -> int:
+        """Free the slots of the running threads, not ``root``'s, that ``gone(tid)`` says have
+        exited (a zombie's, killed, never freed); how many. By thread, as ``clear_process``."""
+        freed = [t for t in self.threads() if not t.blocked and t.pid != root and gone(t.tid)]
+        for t in freed:
+            self.clear_thread(t)
+        return len(freed)
+
+    def unchanged(self, threads: list[ThreadView], states: ThreadStates) -> bool:
+        """Every slot of ``threads`` is as read, and every wait the kernel must confirm is still
+        asleep there (woken, a thread is runnable before it publishes anything)."""
+        return all(self.seq(t.index) == t.seq and (not t.confirmed or states.asleep(t.pid, t.tid)) for t in threads)
 
     def clear_thread(self, view: ThreadView) -> None:
         """Free the slot of ``view``'s thread, which is gone, if that thread still holds it."""

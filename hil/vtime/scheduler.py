@@ -240,9 +240,7 @@ class VirtualClock:
             return False  # not attached yet, or restarting: nothing to schedule
         for t in threads:
             if not t.blocked:
-                # a thread of the tree that is gone (a zombie's: _clear_exited); by its tid,
-                # as a thread claiming a slot names its process only after (clear_process)
-                if t.pid != root and not pid_alive(t.tid):
+                if t.pid != root and not pid_alive(t.tid):  # gone (by tid: clear_process; a zombie: _clear_exited)
                     self.ctl.clear_thread(t)
                     continue
                 return False
@@ -283,25 +281,16 @@ class VirtualClock:
         if not all(self.ctl.seq(t.index) == t.seq for t in threads):
             return False
         if self._tree is not None:
-            if not self._tree.all_in_slots(threads):  # last: /proc reads
-                self._settling = True  # a process the shim cannot see: nothing says when it exits
-                return False
-            # The walk read /proc after the slots: a launcher woken meanwhile (its child reaped,
-            # the next one forked after the walk read its children) makes the walk's "no child
-            # outside the slots" stale, so the slots must still say what they said.
-            if not self._unchanged(threads):
+            # last: /proc reads. A process the shim cannot see: nothing says when it exits. And the
+            # walk reads after the slots: a launcher woken meanwhile (its child reaped, the next
+            # forked after its children were read) makes it stale, so the slots must be unchanged.
+            if not self._tree.all_in_slots(threads) or not self.ctl.unchanged(threads, self._states):
                 self._settling = True
                 return False
         if not any(t.confirmed and t.deadline_ns is not None for t in threads):
             # a timed futex wait ends on the host clock without telling anyone: never cached
             self._idle_at, self._snapshot = (self._events, self._written.count), threads
         return True
-
-    def _unchanged(self, threads: list[ThreadView]) -> bool:
-        """Every slot of ``threads`` is as read, and every wait the kernel must confirm is still
-        asleep there (woken, a thread is runnable before it publishes anything)."""
-        ctl, states = self.ctl, self._states
-        return all(ctl.seq(t.index) == t.seq and (not t.confirmed or states.asleep(t.pid, t.tid)) for t in threads)
 
     async def idle(self, running: Callable[[], bool]) -> bool:
         """Wait until the flight code is idle; False if it is not running (exited, killed).
@@ -382,12 +371,8 @@ class VirtualClock:
         return True
 
     def _clear_exited(self) -> None:
-        """Free the slots of the tree's zombies (killed, never freed): a /proc read each, not
-        inline. Judged by each slot's thread (see ``ControlBlock.clear_process``)."""
-        for t in self.ctl.threads():
-            if not t.blocked and t.pid != self.pid and exited(t.tid):
-                self.ctl.clear_thread(t)
-                self._events += 1
+        """Free the slots of the tree's zombies (killed, never freed): a /proc read each, not inline."""
+        self._events += self.ctl.clear_gone(self.pid, exited)
 
     def _look(self, watch: hidden.StallWatch) -> None:
         """A wait for idle has lasted: the stall warning (once), or raise :class:`HiddenWait`

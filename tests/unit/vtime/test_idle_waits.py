@@ -54,8 +54,12 @@ print(repr([(b, t - seen[0][1]) for b, t in seen]))
     assert [b for b, _ in seen] == [bytes([65 + k]) for k in range(ECHOES)]
     assert [t for _, t in seen] == [k * S // 100 for k in range(ECHOES)]  # each byte read at its sim time
     assert b"".join(got) == bytes(65 + k for k in range(ECHOES))
-    # every answer ended a wait made inline (the first wait of each is inline, up to 1 s)
-    assert out.inline_waits >= ECHOES, (out.inline_waits, out.loop_waits)
+    # The answers end waits made inline, not turns of the event loop. How many waits a run
+    # makes is the host's business (on a loaded machine an answer is often there before the
+    # bench looks: 10-17 inline and 2 through the loop beside CPU hogs, 27-32 and 6-8 on an
+    # idle one); bench_vtime.py measures the cost. Without the inline path every wait is a
+    # turn of the loop.
+    assert out.inline_waits > out.loop_waits, (out.inline_waits, out.loop_waits)
 
 
 async def test_the_event_loop_gets_its_turns_while_every_wait_goes_inline(tmp_path: Path) -> None:

@@ -29,6 +29,13 @@ def _py(code: str) -> list[str]:
     return [sys.executable, "-c", code]
 
 
+def _in_start_up(stalls: list[Stall]) -> bool:
+    """Every stall note came while a program was still starting (its slot had published
+    nothing yet; the others blocked): on a loaded machine Python's start-up alone can pass
+    STALL_S of wall time. A wait the bench did not take for idle ends the run with HiddenWait."""
+    return all(t.blocked or t.seq == 0 for stall in stalls for t in stall.threads)
+
+
 #: a child that sleeps 0.25 s of sim time, then exits 3; the parent waits for it with ``WAIT``
 _WAIT_FOR_CHILD = """
 import os, time, sys
@@ -57,7 +64,7 @@ async def test_a_parent_waiting_for_its_child_is_idle_and_sim_time_moves(call: s
     waited, status = ast.literal_eval(out.stdout.strip())
     assert (waited, status) == (S // 4, 3)
     assert out.times_ns == [S // 4]
-    assert out.calls.get("wait_child", 0) >= 1 and stalls == []
+    assert out.calls.get("wait_child", 0) >= 1 and _in_start_up(stalls)
 
 
 async def test_a_wait_that_can_end_at_once_is_not_published() -> None:
@@ -84,7 +91,7 @@ async def test_sh_c_without_exec_runs_its_child_on_sim_time() -> None:
     out = await run_virtual([sh, "-c", f"{child}; echo done"], stall_warn_s=STALL_S, stalls=stalls)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == [str(1_000_000 * S + S // 2), "done"]
-    assert out.times_ns == [S // 2] and stalls == []
+    assert out.times_ns == [S // 2] and _in_start_up(stalls)
 
 
 @pytest.mark.parametrize("call", ["read", "readv"])
@@ -108,7 +115,7 @@ os.wait()
     out = await run_virtual(_py(code), stall_warn_s=STALL_S, stalls=stalls)
     assert out.returncode == 0, out.stderr
     assert ast.literal_eval(out.stdout.strip()) == (b"hello", 3 * S // 10)
-    assert out.calls.get("read_block", 0) >= 1 and stalls == []
+    assert out.calls.get("read_block", 0) >= 1 and _in_start_up(stalls)
 
 
 async def test_reads_that_do_not_block_are_not_published() -> None:
