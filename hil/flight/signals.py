@@ -10,7 +10,8 @@ status 130; the recorder child then closes the log as aborted, or leaves a ``.pa
 that ``hil recover`` salvages.
 
 SIGQUIT (Ctrl-\\ in a terminal) prints where each of the run's tasks waits, on stderr, and the
-run goes on: a run that seems to hang says what it waits for.
+run goes on: a run that seems to hang says what it waits for. Every thread's Python stack comes
+first (faulthandler, from the signal itself), so a run blocked outside its event loop says where too.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import contextvars
+import faulthandler
 import os
 import signal
 import sys
@@ -69,6 +71,17 @@ def dump_tasks(file: TextIO | None = None) -> None:
     out.flush()
 
 
+def _trace_threads_on(sig: int) -> bool:
+    """faulthandler's dump of every thread on ``sig``, chained to the handler before it; False
+    where stderr has no file descriptor (a test's captured stream)."""
+    try:
+        fd = sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):
+        return False
+    faulthandler.register(sig, file=fd, all_threads=True, chain=True)
+    return True
+
+
 def on_hard_exit(action: Callable[[], None]) -> Callable[[], None]:
     """Have ``action`` done if a second signal makes this run's process exit at once; returns
     the call that takes it back. Outside ``cancelled_by_signals`` it does nothing."""
@@ -98,6 +111,9 @@ async def cancelled_by_signals(aw: Awaitable[_T]) -> _T:
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, on_signal)
     loop.add_signal_handler(signal.SIGQUIT, dump_tasks)
+    # and every thread's Python stack from the signal itself: a run whose loop is blocked in a
+    # call (a pipe it reads, a child it waits for) never runs dump_tasks
+    traced = _trace_threads_on(signal.SIGQUIT)
     try:
         return await aw
     except asyncio.CancelledError:
@@ -108,6 +124,8 @@ async def cancelled_by_signals(aw: Awaitable[_T]) -> _T:
         print("interrupted before the flight started", file=sys.stderr)
         raise SystemExit(HARD_EXIT_STATUS) from None
     finally:
+        if traced:
+            faulthandler.unregister(signal.SIGQUIT)
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGQUIT):
             loop.remove_signal_handler(sig)
         _HARD_EXIT.reset(token)
