@@ -3,9 +3,10 @@ memory, and the GDB remote protocol's commands over them (sans-I/O: packets in, 
 hil/flight/board_gdb.py carries them over TCP).
 
 A breakpoint is a Unicorn code hook on its address that stops the core *before* the
-instruction there runs; the cycle counter settles the part of the block that ran
-(``Core._slice``), so the cycles stay those of the instructions executed. Resuming from a
-breakpoint steps over it once. A halt also comes from a single step, from GDB's interrupt
+instruction there runs; it costs no cycle until it stops the core. The cycle counter charges a
+block when it enters it, so the rest of the stopped block is charged again when the core
+resumes there (5 cycles a stop in tests/unit/board/test_debug.py's loop; docs/board.md).
+Resuming from a breakpoint steps over it once. A halt also comes from a single step, from GDB's interrupt
 (taken at the next tick), and at reset, where a debugger gets the core before its first
 instruction.
 
@@ -102,15 +103,13 @@ class Debugger:
             self._step = None
             self._step_from = None
 
-    def take_interrupt(self) -> bool:
-        """GDB asked the running core to stop: halt it here (between ticks); True if it did."""
-        if not self.interrupt_requested or self.core.halted:
-            return False
-        self.interrupt_requested = False
-        self.core.halted = True
-        self.stop_signal = int(signal.SIGINT)
-        self.stops += 1
-        return True
+    def take_interrupt(self) -> None:
+        """GDB asked the running core to stop: halt it here (between ticks)."""
+        if self.interrupt_requested and not self.core.halted:
+            self.interrupt_requested = False
+            self.core.halted = True
+            self.stop_signal = int(signal.SIGINT)
+            self.stops += 1
 
     def resume(self, how: Resume) -> None:
         """Let the core run (a continue, a step or a detach)."""

@@ -28,7 +28,6 @@ class GdbServer:
         self.debugger = Debugger(core)
         self.host, self.port = host, port
         self.killed = False
-        self.sessions = 0
         self._server: asyncio.Server | None = None
         self._writer: asyncio.StreamWriter | None = None
         self._reader_task: asyncio.Task[None] | None = None
@@ -58,7 +57,6 @@ class GdbServer:
         if self._writer is not None:  # one debugger at a time
             writer.close()
             return
-        self.sessions += 1
         self._writer = writer
         self._decoder = rsp.Decoder()
         self._connected.set()

@@ -125,9 +125,7 @@ class BoardTickLoop:
         gdb.debugger.take_interrupt()
         while True:
             if core.halted:
-                await gdb.hold()
-                if gdb.killed:
-                    return False
+                await gdb.hold()  # a kill there makes _advance say the firmware stopped
             running = self._advance(t_ns)
             if not running or not core.halted:
                 return running
