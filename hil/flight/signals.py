@@ -67,8 +67,29 @@ def dump_tasks(file: TextIO | None = None) -> None:
     print(f"hil: {len(tasks)} tasks (SIGQUIT)", file=out)
     for task in sorted(tasks, key=lambda t: t.get_name()):
         print(f"--- {task.get_name()}: {task.get_coro()!r}", file=out)
-        task.print_stack(file=out)
+        for line in await_chain(task.get_coro()):
+            print(f"  {line}", file=out)
+        waiter = getattr(task, "_fut_waiter", None)  # the future the task sleeps on (asyncio's own field)
+        if waiter is not None:
+            print(f"  the task waits for {waiter!r}"[:800], file=out)
     out.flush()
+
+
+def await_chain(coro: object) -> list[str]:
+    """Where a suspended coroutine waits: each coroutine it awaits, down to the awaited object
+    (a future, a sleep), one line each. A task's own stack shows only its outermost frame."""
+    lines = []
+    for _ in range(64):  # an await chain is short; the bound guards a cycle
+        frame = getattr(coro, "cr_frame", None) or getattr(coro, "gi_frame", None)
+        if frame is None:
+            lines.append(f"awaits {coro!r}"[:500])
+            break
+        lines.append(f"{frame.f_code.co_filename}:{frame.f_lineno} in {frame.f_code.co_name}")
+        inner = getattr(coro, "cr_await", None) or getattr(coro, "gi_yieldfrom", None)
+        if inner is None:
+            break
+        coro = inner
+    return lines
 
 
 def _trace_threads_on(sig: int) -> bool:

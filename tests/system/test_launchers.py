@@ -89,7 +89,9 @@ def tree_of_bench(bench_pid: int) -> list[tuple[int, str]]:
 
 
 def run_dirs_of(pids: list[tuple[int, str]]) -> set[Path]:
-    """The run directories named in these processes' command lines (the flight config's)."""
+    """The run directories named in these processes' command lines (the flight config's, also
+    inside a shell's command string: ``sh -c "... --config DIR/flight.toml; echo done"`` may be
+    all there is when the signal comes before the shell started the flight code)."""
     dirs = set()
     for pid, _ in pids:
         try:
@@ -98,8 +100,7 @@ def run_dirs_of(pids: list[tuple[int, str]]) -> set[Path]:
         except OSError:
             continue
         for arg in args:
-            if arg.endswith("/flight.toml"):
-                dirs.add(Path(arg.split("=", 1)[-1]).parent)
+            dirs.update(Path(m).parent for m in re.findall(r"(/[^\s=;'\"]*/flight\.toml)\b", arg))
     return dirs
 
 
@@ -191,13 +192,8 @@ async def _interrupt(tmp_path: Path, name: str, moment: str, signals: tuple[int,
             proc.send_signal(sig)
         try:
             text = proc.communicate(timeout=END_WITHIN_S)[0].decode(errors="replace")
-        except subprocess.TimeoutExpired:
-            proc.send_signal(signal.SIGQUIT)  # hil run prints where its tasks wait: into the failure
-            try:
-                said = proc.communicate(timeout=10)[0].decode(errors="replace")
-            except subprocess.TimeoutExpired:
-                said = "(nothing: it did not answer SIGQUIT either)"
-            raise AssertionError(f"hil run still ran {END_WITHIN_S} s after the signal; it said:\n{said[-8000:]}") from None
+        except subprocess.TimeoutExpired as exc:
+            raise AssertionError(_still_running(proc, exc.output or b"")) from None
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
@@ -207,6 +203,40 @@ async def _interrupt(tmp_path: Path, name: str, moment: str, signals: tuple[int,
             os.kill(pid, signal.SIGKILL)
     assert left == [], f"survivors {left} of {seen}"
     return proc.returncode, text, seen, dirs
+
+
+def _pipe_holders(fd: int) -> list[str]:
+    """Every process holding the pipe behind our ``fd`` open, with where each thread waits (from /proc)."""
+    pipe = os.readlink(f"/proc/self/fd/{fd}")
+    held = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit() or int(entry.name) == os.getpid():
+            continue
+        try:
+            if not any(os.readlink(f) == pipe for f in (entry / "fd").iterdir()):
+                continue
+            cmd = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")[:200]
+            waits = sorted({(t / "wchan").read_text() for t in (entry / "task").iterdir()})
+            held.append(f"{entry.name} ({cmd.strip()}): threads wait in {waits}")
+        except OSError:
+            continue
+    return held
+
+
+def _still_running(proc: subprocess.Popen[bytes], said: bytes) -> str:
+    """Why ``communicate`` did not return: whether hil run itself still runs, who else holds its
+    output pipe open (a survivor of its tree looks the same to communicate), and what hil run
+    said, with its every thread's stack on SIGQUIT (hil/flight/signals.py)."""
+    status = "still runs" if proc.poll() is None else f"has exited with status {proc.returncode}"
+    holders = _pipe_holders(proc.stdout.fileno()) if proc.stdout is not None else []
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGQUIT)
+    try:  # communicate's output is cumulative: from the start, not from the timeout
+        said = proc.communicate(timeout=10)[0] or said
+    except subprocess.TimeoutExpired as exc:
+        said = exc.output or said
+    return (f"hil run did not close its output {END_WITHIN_S} s after the signal: it {status}; the pipe is "
+            f"held by {holders or 'no one else'}; it said:\n{said.decode(errors='replace')[-12000:]}")
 
 
 @pytest.mark.parametrize("moment", ["booting", "flying"])
