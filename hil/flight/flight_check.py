@@ -29,6 +29,7 @@ from hil.config.rig import Rig
 from hil.config.scenario import Scenario
 from hil.flight.process import expand_command
 from hil.flight.run_files import write_flight_config
+from hil.flight.spawn import uncancelled_start
 
 CHECK_FLAG = "--check-config"
 #: wall seconds the check may take (an interpreter start and the config's imports: about 0.5 s)
@@ -84,12 +85,16 @@ async def _ask(argv: list[str]) -> dict[str, Any] | None:
     """Run the check; its verdict, or None if it gave none. A launcher in the command (``sh
     -c``, ``make``) may go on after the flight code answered, or never end: its process group
     is killed as soon as the verdict is read, at ``CHECK_TIMEOUT_S``, or on a cancel."""
+    loop = asyncio.get_running_loop()
+    spawn = asyncio.ensure_future(loop.subprocess_exec(
+        lambda: asyncio.subprocess.SubprocessStreamProtocol(limit=2**16, loop=loop), *argv,
+        stdin=asyncio.subprocess.DEVNULL, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL,
+        start_new_session=True))
     try:
-        proc = await asyncio.create_subprocess_exec(*argv, stdin=asyncio.subprocess.DEVNULL,
-                                                    stdout=asyncio.subprocess.PIPE,
-                                                    stderr=asyncio.subprocess.DEVNULL, start_new_session=True)
+        transport, protocol = await uncancelled_start(spawn, _kill_group)
     except OSError:
         return None  # the run's own start says what is wrong with the command
+    proc = asyncio.subprocess.Process(transport, protocol, loop)
     assert proc.stdout is not None
     try:
         async with asyncio.timeout(CHECK_TIMEOUT_S):
@@ -105,6 +110,13 @@ async def _ask(argv: list[str]) -> dict[str, Any] | None:
         with contextlib.suppress(TimeoutError):  # bounded: a descendant that left the group holds stdout
             await asyncio.wait_for(asyncio.shield(proc.wait()), REAP_TIMEOUT_S)
     return None
+
+
+def _kill_group(transport: asyncio.SubprocessTransport) -> None:
+    """A check cancelled while it started: its whole group (a launcher's children too)."""
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(transport.get_pid(), signal.SIGKILL)
+    transport.close()
 
 
 def _verdict(line: bytes) -> dict[str, Any] | None:

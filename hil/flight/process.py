@@ -22,6 +22,7 @@ from pathlib import Path
 
 from hil.flight.process_tree import TOKEN_ENV, TreeOwner, end_cancelled_start
 from hil.flight.signals import on_hard_exit
+from hil.flight.spawn import uncancelled_start
 from hil.vtime.tree import ProcState
 
 LineCallback = Callable[[str, str], None]
@@ -103,18 +104,19 @@ class FlightProcess:
         TreeOwner.hold()  # this process reaps the tree's orphans from now
         loop = asyncio.get_running_loop()
         root_exited = asyncio.Event()
+        spawn = asyncio.ensure_future(loop.subprocess_exec(
+            lambda: _Protocol(root_exited, loop),
+            *self.argv,
+            cwd=self.cwd,
+            stdin=asyncio.subprocess.DEVNULL,
+            stdout=asyncio.subprocess.PIPE,
+            stderr=asyncio.subprocess.PIPE,
+            env=env,
+            start_new_session=True,  # its own group: Ctrl-C in the terminal reaches the bench only
+            preexec_fn=_die_with_parent,
+        ))
         try:
-            transport, protocol = await loop.subprocess_exec(
-                lambda: _Protocol(root_exited, loop),
-                *self.argv,
-                cwd=self.cwd,
-                stdin=asyncio.subprocess.DEVNULL,
-                stdout=asyncio.subprocess.PIPE,
-                stderr=asyncio.subprocess.PIPE,
-                env=env,
-                start_new_session=True,  # its own group: Ctrl-C in the terminal reaches the bench only
-                preexec_fn=_die_with_parent,
-            )
+            transport, protocol = await uncancelled_start(spawn)
         except BaseException:
             try:
                 await end_cancelled_start(token)

@@ -143,3 +143,58 @@ async def test_a_start_cancelled_while_asyncio_starts_the_command_leaves_nothing
         await flight.start()
     assert with_token(f"{os.getpid()}-") == []
     assert subreaper() == 0
+
+
+@pytest.mark.parametrize("steps", [1, 2, 3, 4, 6])
+async def test_a_start_cancelled_at_any_step_of_asyncio_connecting_the_pipes_ends(tmp_path: Path, steps: int) -> None:
+    """The real ``subprocess_exec``, cancelled ``steps`` loop iterations into the start (after
+    the fork, while asyncio connects stdout and stderr). Python 3.11's asyncio then waits, in
+    its own clean-up, for the pipes that were never connected to close (CPython gh-125502,
+    gh-103847): the start never ended, and a SIGTERM at a launcher's boot hung ``hil run``
+    (its one task cancelling, the event loop idle). The start must end, leaving nothing."""
+    flight = FlightProcess(["sh", "-c", f"{SLEEPER} & wait"], cwd=tmp_path, on_line=lambda s, l: None)
+    start = asyncio.create_task(flight.start())
+    for _ in range(steps):
+        await asyncio.sleep(0)
+    start.cancel()
+    done, _ = await asyncio.wait([start], timeout=20)  # a bound on a hang, not a timing claim
+    if not done:
+        start.cancel()  # asyncio's wait for the pipes is cancellable: free the test
+        await asyncio.wait([start], timeout=5)
+    assert done, f"start() cancelled {steps} loop steps in never ended"
+    if not start.cancelled():  # the start won the race: it owns a running command to stop
+        assert start.exception() is None
+        await flight.stop()
+    assert with_token(f"{os.getpid()}-") == []
+    assert subreaper() == 0
+
+
+@pytest.mark.parametrize("steps", [1, 2, 3])
+async def test_the_flight_check_cancelled_while_it_starts_ends_with_its_group(tmp_path: Path, steps: int) -> None:
+    """The flight code's own config check (hil/flight/flight_check.py) is started the same way
+    and ends the same way: a cancel in its start ends it, its launcher's children too."""
+    from hil.flight.flight_check import _ask
+
+    marker = f"check-{os.getpid()}-{steps}"
+    ask = asyncio.create_task(_ask(["sh", "-c", f"{PY} -c 'import time; time.sleep(120)' {marker} & wait"]))
+    for _ in range(steps):
+        await asyncio.sleep(0)
+    ask.cancel()
+    done, _ = await asyncio.wait([ask], timeout=20)  # a bound on a hang, not a timing claim
+    assert done, f"the check cancelled {steps} loop steps in never ended"
+    loop = asyncio.get_running_loop()
+    give_up = loop.time() + 10
+    while _with_arg(marker):  # SIGKILLed: gone as soon as the kernel reaps it
+        assert loop.time() < give_up, _with_arg(marker)
+        await asyncio.sleep(0.02)
+
+
+def _with_arg(arg: str) -> list[int]:
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            if entry.name.isdigit() and arg.encode() in (entry / "cmdline").read_bytes().split(b"\0"):
+                found.append(int(entry.name))
+        except OSError:
+            continue
+    return found
