@@ -18,6 +18,8 @@ Metrics (all over the criterion's window, sim seconds):
 | settling_time | time after ``step_t_s`` from which the signal stays within ``band`` of ``target`` |
 | rise_time | 10 % -> 90 % time of the step from ``start`` to ``target`` after ``step_t_s`` |
 | fraction_saturated | fraction of samples with any column <= ``lo`` or >= ``hi`` |
+| fraction_in | fraction of samples with every column in [``lo``, ``hi``] (a reported mode: ``lo = hi`` = its number) |
+| fraction_finite | fraction of samples that are finite (a downlink that must say "no value": ``max = 0``); non-finite samples are what it counts, so they never fail it |
 | phase_lag_deg | phase of ``reference`` minus phase of ``signal`` at ``freq_hz`` (least-squares sine fit over the window, each at its own sample instants; positive = the signal lags) |
 | rms_change_pct | 100 (RMS over ``window_s`` / RMS over ``baseline_window_s`` - 1) |
 
@@ -31,6 +33,11 @@ the signal never reaches the target, and needs ``min`` as well as ``max``.
 Non-finite samples (NaN, inf) in a criterion's window fail it, unless the criterion states
 the share it tolerates (``nonfinite_fraction_max``); the tolerated ones are left out of the
 metric. A whole row counts as non-finite when any of its columns is.
+
+A window with no sample of its signal fails, naming the window. An irregular series (the
+telemetry, ``tm.*``) is held on the tick grid; a window in which none of its samples arrived
+fails too (:class:`NoArrival`): the held value is an older reading, and a flight code that
+stopped reporting must not pass on what it said before.
 """
 
 from __future__ import annotations
@@ -57,6 +64,10 @@ class CriterionResult:
     #: False: the criterion could not be judged (a compute budget on a rig without a calibrated
     #: ``cpu_scale``); it does not fail the run, and the summary shows "not judged", never "pass"
     judged: bool = True
+    #: signed distance from the nearest bound in the metric's units, >= 0 when it passes (a
+    #: near-miss shows as a small number of either sign); -inf when no value could be judged,
+    #: +inf when no bound limits it; NaN when not judged
+    margin: float = math.nan
 
     @property
     def verdict(self) -> str:
@@ -68,6 +79,24 @@ class CriterionResult:
 
 class NonFinite(ValueError):
     """More non-finite samples in a criterion's window than it tolerates."""
+
+
+class NoArrival(ValueError):
+    """No sample of an irregular series (telemetry) arrived in a criterion's window: the values
+    held on the tick grid there are an older reading, and judging them would judge the past."""
+
+    def __init__(self, c: Criterion, series: str) -> None:
+        assert c.window_s is not None
+        super().__init__(f"no sample of {series} arrived in [{c.window_s[0]:g}, {c.window_s[1]:g}] s "
+                         "(a value held from before is not a reading)")
+
+
+def check_arrived(c: Criterion, arrived: dict[str, int]) -> None:
+    """Raise :class:`NoArrival` for the first held series with no sample in ``c``'s window
+    (``arrived``: series -> samples stamped in it)."""
+    for series, n in arrived.items():
+        if n == 0 and c.window_s is not None:
+            raise NoArrival(c, series)
 
 
 def check_finite(c: Criterion, samples: int, finite: int) -> None:
@@ -122,6 +151,8 @@ def _step_levels(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> tuple[float, f
 def _metric(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> float:
     if v.size == 0:
         return math.nan
+    if c.metric == "fraction_finite":
+        return _finite_count(v) / v.shape[0]
     flat = v[np.isfinite(v)] if v.ndim == 1 else v[np.all(np.isfinite(v), axis=1)]
     if flat.size == 0:
         return math.nan
@@ -156,6 +187,13 @@ def _metric(c: Criterion, t_s: np.ndarray, v: np.ndarray) -> float:
         if sat.ndim == 2:
             sat = np.any(sat, axis=1)
         return float(np.mean(sat))
+    if m == "fraction_in":
+        lo = -math.inf if c.lo is None else c.lo
+        hi = math.inf if c.hi is None else c.hi
+        inside = (flat >= lo) & (flat <= hi)
+        if inside.ndim == 2:
+            inside = np.all(inside, axis=1)
+        return float(np.mean(inside))
     # step metrics
     if c.step_t_s is None:
         raise ValueError(f"criterion {c.name!r}: metric {m} needs step_t_s")
@@ -220,20 +258,37 @@ def bound_text(c: Criterion) -> str:
     )
 
 
+def margin_of(value: float, lo: float | None, hi: float | None) -> float:
+    """Signed margin of ``value`` inside ``[lo, hi]`` (either may be absent), in its units: the
+    distance to the nearest bound, >= 0 inside. NaN and -inf never pass (-inf); +inf passes
+    only with no upper bound."""
+    if math.isnan(value) or value == -math.inf:
+        return -math.inf
+    margin = math.inf
+    if lo is not None:
+        margin = min(margin, value - lo)
+    if hi is not None:
+        margin = min(margin, hi - value)
+    return margin
+
+
+def no_data_detail(c: Criterion) -> str:
+    """Why a criterion has no value: its window held no sample of its signal."""
+    where = f"in [{c.window_s[0]:g}, {c.window_s[1]:g}] s" if c.window_s is not None else "in the run"
+    return f"no sample of {c.signal} {where}"
+
+
 def result_of(c: Criterion, value: float) -> CriterionResult:
-    """The verdict on a metric's value: NaN fails; +inf passes only with no upper bound."""
-    ok = math.isfinite(value) or (value == math.inf and c.max is None)
-    if c.max is not None and not value <= c.max:
-        ok = False
-    if c.min is not None and not value >= c.min:
-        ok = False
-    detail = "" if math.isfinite(value) else "no data in the window" if math.isnan(value) else "never settled"
-    return CriterionResult(c.name, c.signal, c.metric, value, bound_text(c), bool(ok), detail)
+    """The verdict on a metric's value: NaN fails (naming the empty window); +inf passes only
+    with no upper bound. It passes exactly when its margin is >= 0."""
+    margin = margin_of(value, c.min, c.max)
+    detail = "" if math.isfinite(value) else no_data_detail(c) if math.isnan(value) else "never settled"
+    return CriterionResult(c.name, c.signal, c.metric, value, bound_text(c), margin >= 0.0, detail, margin=margin)
 
 
 def failed(c: Criterion, exc: Exception) -> CriterionResult:
     """A criterion that could not be evaluated (an unknown signal, a missing parameter)."""
-    return CriterionResult(c.name, c.signal, c.metric, math.nan, bound_text(c), False, str(exc))
+    return CriterionResult(c.name, c.signal, c.metric, math.nan, bound_text(c), False, str(exc), margin=-math.inf)
 
 
 def evaluate(criteria: list[Criterion], trace: Trace) -> list[CriterionResult]:
@@ -254,8 +309,12 @@ def evaluate(criteria: list[Criterion], trace: Trace) -> list[CriterionResult]:
                 rms_before = _metric(c.model_copy(update={"metric": "rms"}), t_s, before)
                 value = 100.0 * (rms_after / rms_before - 1.0) if rms_before > 0.0 else math.nan
             else:
+                if c.window_s is not None:
+                    check_arrived(c, {name: _window(*trace.samples(name), c.window_s)[1].shape[0]
+                                      for name in trace.held_series(c.signal)})
                 t_w, v_w = _window(t_s, values, c.window_s)
-                check_finite(c, v_w.shape[0], _finite_count(v_w))
+                if c.metric != "fraction_finite":  # which measures just that
+                    check_finite(c, v_w.shape[0], _finite_count(v_w))
                 value = _metric(c, t_w, v_w)
         except (KeyError, ValueError) as exc:
             results.append(failed(c, exc))

@@ -8,7 +8,7 @@ trace (the batch reference: tests compare the two on random traces). What each k
 
 | metric | held |
 |---|---|
-| max_abs, rms, mean, min, max, final, increase, amplitude, std, rms_delta, fraction_saturated, rms_change_pct | running aggregates (hil/analysis/online_stats.py ``Moments``): one row |
+| max_abs, rms, mean, min, max, final, increase, amplitude, std, rms_delta, fraction_saturated, fraction_in, fraction_finite, rms_change_pct | running aggregates (hil/analysis/online_stats.py ``Moments``): one row |
 | phase_lag_deg | two least-squares factors, 4x4 each (``SineFit``) |
 | overshoot, settling_time, rise_time | the step's levels as running sums; after the step, running max, the time after the last sample outside the band, the first 10 % and 90 % crossings |
 | p99_abs | every finite |value| in its window, 8 bytes each (a percentile needs them): the one metric whose memory grows with its window |
@@ -25,14 +25,14 @@ from functools import partial
 
 import numpy as np
 
-from hil.analysis.criteria import CriterionResult, check_finite, failed, result_of
+from hil.analysis.criteria import CriterionResult, check_arrived, check_finite, failed, result_of
 from hil.analysis.online_stats import ExactSum, Moments, SineFit, finite_rows
 from hil.config.scenario import Criterion
-from hil.analysis.signal_stream import Source, resolve
+from hil.analysis.signal_stream import Source, held_names, resolve
 from hil.analysis.trace_stream import Chunk, TraceStream
 
 POOLED = frozenset({"max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std", "rms_delta",
-                    "fraction_saturated", "increase"})
+                    "fraction_saturated", "increase", "fraction_in", "fraction_finite"})
 STEP = frozenset({"overshoot", "settling_time", "rise_time"})
 
 
@@ -45,6 +45,8 @@ def _window(t_s: np.ndarray, values: np.ndarray, window: tuple[float, float] | N
 
 def pooled_value(metric: str, m: Moments, kept: list[np.ndarray] | None = None) -> float:
     """A pooled metric from its aggregates (``kept``: p99_abs's |values|)."""
+    if metric == "fraction_finite":
+        return m.rows / m.samples if m.samples else math.nan
     if m.samples == 0 or m.rows == 0:
         return math.nan
     if metric == "max_abs":
@@ -74,7 +76,25 @@ def pooled_value(metric: str, m: Moments, kept: list[np.ndarray] | None = None) 
         return math.sqrt(m.delta_sq / m.delta_n) if m.delta_n else 0.0
     if metric == "fraction_saturated":
         return m.saturated / m.rows
+    if metric == "fraction_in":
+        return m.inside / m.rows
     raise ValueError(f"unknown metric {metric}")
+
+
+class _Arrivals:
+    """Samples of each series a signal holds on the tick grid, stamped in a window."""
+
+    def __init__(self, source: Source, window: tuple[float, float] | None) -> None:
+        self.window = window
+        self.count = dict.fromkeys(held_names(source), 0) if window is not None else {}
+
+    def feed(self, chunk: Chunk) -> None:
+        for name in self.count:
+            pts = chunk.points.get(name)
+            if pts is not None:
+                assert self.window is not None
+                t_s = pts[0] / 1e9
+                self.count[name] += int(np.count_nonzero((t_s >= self.window[0]) & (t_s <= self.window[1])))
 
 
 class _Evaluator:
@@ -96,15 +116,19 @@ class _Pooled(_Evaluator):
         hi = math.inf if c.hi is None else c.hi
         self.m = Moments(lo, hi)
         self.kept: list[np.ndarray] | None = [] if c.metric == "p99_abs" else None
+        self.arrivals = _Arrivals(source, c.window_s)
 
     def feed(self, chunk: Chunk) -> None:
+        self.arrivals.feed(chunk)
         _, v = _window(*self.sources[0].block(chunk), self.c.window_s)
         flat = self.m.add(v)
         if self.kept is not None and flat.size:
             self.kept.append(np.abs(flat).ravel())
 
     def value(self) -> float:
-        check_finite(self.c, self.m.samples, self.m.rows)
+        check_arrived(self.c, self.arrivals.count)
+        if self.c.metric != "fraction_finite":  # which measures just that
+            check_finite(self.c, self.m.samples, self.m.rows)
         return pooled_value(self.c.metric, self.m, self.kept)
 
 
@@ -174,9 +198,11 @@ class _Step(_Evaluator):
         self.start = math.nan  # of the rise (the level before the step, or the first sample after)
         self.t10: float | None = None
         self.t90: float | None = None
+        self.arrivals = _Arrivals(source, c.window_s)
 
     def feed(self, chunk: Chunk) -> None:
         c = self.c
+        self.arrivals.feed(chunk)
         t_raw, v_raw = self.sources[0].block(chunk)
         t_s, v = _window(t_raw, v_raw, c.window_s)
         self.samples += v.shape[0]
@@ -257,6 +283,7 @@ class _Step(_Evaluator):
 
     def value(self) -> float:
         c = self.c
+        check_arrived(c, self.arrivals.count)
         check_finite(c, self.samples, self.finite)
         if self.samples == 0 or self.finite == 0:
             return math.nan

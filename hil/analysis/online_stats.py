@@ -104,11 +104,11 @@ class Moments:
     """Running aggregates of the finite rows of a signal, all columns pooled.
 
     ``lo``/``hi``: saturation limits (a row counts as saturated when any column is at or
-    beyond one).
+    beyond one), and the range a row is inside when every column is within it (bounds included).
     """
 
     __slots__ = ("lo", "hi", "samples", "rows", "n", "total", "total_sq", "mean", "m2", "min", "max",
-                 "max_abs", "first", "last", "delta_sq", "delta_n", "saturated")
+                 "max_abs", "first", "last", "delta_sq", "delta_n", "saturated", "inside")
 
     def __init__(self, lo: float = -math.inf, hi: float = math.inf) -> None:
         self.lo, self.hi = lo, hi
@@ -127,6 +127,7 @@ class Moments:
         self.delta_sq = 0.0  #: sum of squared changes between consecutive finite rows
         self.delta_n = 0
         self.saturated = 0  #: finite rows with a column <= lo or >= hi
+        self.inside = 0  #: finite rows with every column in [lo, hi]
 
     def add(self, values: np.ndarray) -> np.ndarray:
         """Feed a block; returns its finite rows."""
@@ -156,6 +157,8 @@ class Moments:
         self.last = flat[-1:].copy()
         sat = (flat <= self.lo) | (flat >= self.hi)
         self.saturated += int(np.count_nonzero(np.any(sat, axis=1) if sat.ndim == 2 else sat))
+        inside = (flat >= self.lo) & (flat <= self.hi)
+        self.inside += int(np.count_nonzero(np.all(inside, axis=1) if inside.ndim == 2 else inside))
         return flat
 
 

@@ -153,6 +153,16 @@ class TickDiff(Source):
         return t_s, a - b
 
 
+def held_names(source: Source) -> list[str]:
+    """The irregular series ``source`` holds on the tick grid (as ``Trace.held_series``)."""
+    if isinstance(source, Held):
+        return [source.name]
+    if isinstance(source, TickDiff):
+        return held_names(source.a) + held_names(source.b) if isinstance(source.a, Held) and isinstance(
+            source.b, Held) else []
+    return []
+
+
 def _field(fields: Mapping[str, Mapping[str, int]], name: str) -> Field | None:
     col = None
     m = _COLUMN.match(name)

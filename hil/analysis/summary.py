@@ -24,6 +24,15 @@ def _fmt(value: float) -> str:
     return f"{value:.4g}"
 
 
+def _margin(margin: float) -> str:
+    """A criterion's margin: signed, so that a near-miss reads as one ("+0.02", "-0.3")."""
+    if math.isnan(margin):
+        return ""
+    if math.isinf(margin):
+        return "none" if margin < 0 else ""
+    return f"{margin:+.3g}"
+
+
 def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scenario) -> None:
     verdict = "[bold green]PASS[/]" if result.passed else "[bold red]FAIL[/]"
     console.print(
@@ -48,11 +57,11 @@ def print_summary(console: Console, result: RunResult, rig: Rig, scenario: Scena
         console.print(f"  [yellow]note:[/] {note}", highlight=False)
     if result.criteria:
         table = Table(title="criteria", show_lines=False)
-        for col in ("check", "signal", "metric", "value", "bound", "result"):
+        for col in ("check", "signal", "metric", "value", "bound", "margin", "result"):
             table.add_column(col)
         for c in result.criteria:
             table.add_row(
-                c.name, c.signal, c.metric, _fmt(c.value), c.bound,
+                c.name, c.signal, c.metric, _fmt(c.value), c.bound, _margin(c.margin),
                 {"pass": "[green]pass[/]", "FAIL": "[red]FAIL[/]", "not judged": "[yellow]not judged[/]"}[c.verdict]
                 + (f" ({c.detail})" if c.detail else ""),
             )

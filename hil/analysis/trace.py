@@ -106,6 +106,15 @@ class Trace:
             return np.array(times, dtype=np.int64) / 1e9, np.array(values, dtype=float)
         return self.signal(name, grid)
 
+    def held_series(self, name: str) -> list[str]:
+        """The irregular series that signal ``name`` holds on the tick grid (a series alone, or
+        both sides of a difference of two; a difference with one series is taken at its own
+        instants, not held)."""
+        sides = [part.strip() for part in name.split(" - ", 1)] if " - " in name else [name]
+        series = [m.group("base") if (m := _COLUMN.match(side)) else side for side in sides]
+        held = [s for s in series if s in self._series]
+        return held if len(held) == len(sides) else []
+
     def signal(self, name: str, grid: str = "truth") -> tuple[np.ndarray, np.ndarray]:
         """(t_s, values) of a signal on the tick grid of ``grid``; KeyError if unknown.
 

@@ -126,13 +126,13 @@ class Criterion(_Strict):
     metric: Literal[
         "max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std",
         "rms_delta", "overshoot", "settling_time", "fraction_saturated", "rise_time",
-        "phase_lag_deg", "rms_change_pct", "increase",
+        "phase_lag_deg", "rms_change_pct", "increase", "fraction_in", "fraction_finite",
     ]
     window_s: tuple[float, float] | None = None
     max: float | None = None
     min: float | None = None
     #: metric parameters: target (overshoot/settling/rise), band (settling), step_t_s,
-    #: lo/hi (fraction_saturated)
+    #: lo/hi (fraction_saturated, fraction_in)
     target: float | None = None
     band: float | None = None
     step_t_s: float | None = None
@@ -164,6 +164,8 @@ class Criterion(_Strict):
             raise ValueError("rms_change_pct needs window_s and baseline_window_s")
         if self.step_size is not None and self.target is not None:
             raise ValueError("give one of target or step_size")
+        if self.metric == "fraction_in" and self.lo is None and self.hi is None:
+            raise ValueError("fraction_in needs lo and/or hi (the range a sample must be in)")
         if self.metric == "overshoot" and (self.min is None or self.max is None):
             raise ValueError("overshoot needs min and max (an undershoot, a step short of its size, must fail too)")
         return self

@@ -32,12 +32,17 @@ def _cpu_s(timing: dict[str, Any]) -> float | None:
 
 
 def _badness(c: dict[str, Any]) -> tuple[int, float]:
-    """Sort key, larger = worse: failed first, then the value pushed towards its bound."""
+    """Sort key, larger = worse: failed first, then the smaller margin (a result without one,
+    from a flight code's own criteria, by its value pushed towards its bound)."""
     v = c.get("value")
     if v is None or (isinstance(v, float) and math.isnan(v)):
         return (1, math.inf)
+    failed = 0 if c.get("passed") else 1
+    margin = c.get("margin")
+    if isinstance(margin, (int, float)):
+        return (failed, -float(margin))
     lower_only = ">=" in str(c.get("bound", "")) and "<=" not in str(c.get("bound", ""))
-    return (0 if c.get("passed") else 1, -float(v) if lower_only else float(v))
+    return (failed, -float(v) if lower_only else float(v))
 
 
 _STOPPED = frozenset({"interrupted", "cancelled"})
@@ -62,7 +67,7 @@ def summarize(results: list[dict[str, Any]], *, campaign: Campaign, cases: int, 
                 w = worst.get(c["name"])
                 if w is None or _badness(c) > _badness(w):
                     worst[c["name"]] = {"value": c.get("value"), "bound": c.get("bound"), "passed": c.get("passed"),
-                                        "case_id": r["case_id"]}
+                                        "margin": c.get("margin"), "case_id": r["case_id"]}
         by_scenario[name] = {
             "cases": len(rs), **{k: sum(1 for r in rs if outcome(r) == k) for k in ("passed", "failed", "stopped")},
             "end_reasons": dict(sorted({e: sum(1 for r in rs if r.get("end_reason") == e)
@@ -97,7 +102,8 @@ def print_summary(console: Console, summary: dict[str, Any]) -> None:
     for name, s in summary["by_scenario"].items():
         worst = Text()
         for i, (c, w) in enumerate(s["worst"].items()):
-            line = f"{chr(10) if i else ''}{c}: {_fmt(w['value'])} {w['bound']} ({w['case_id']})"
+            margin = f", margin {w['margin']:+.3g}" if isinstance(w.get("margin"), (int, float)) else ""
+            line = f"{chr(10) if i else ''}{c}: {_fmt(w['value'])} {w['bound']}{margin} ({w['case_id']})"
             worst.append(line, style="" if w["passed"] else "red")
         tm = s["timing_median"]
         table.add_row(name, str(s["cases"]), f"[green]{s['passed']}[/]", f"[red]{s['failed']}[/]" if s["failed"] else "0",

@@ -73,14 +73,17 @@ def board_criteria(timing: dict[str, float]) -> list[CriterionResult]:
         detail = (f"written to the end of its region: {', '.join(over)}" if over
                   else f"fullest: {worst} {used:.0f} of {size:.0f} B")
         out.append(CriterionResult("board: stacks within their regions", "timing.board_stack_*_used_B",
-                                   "high-water mark", used, f"< region ({size:.0f} B)", not over, detail))
+                                   "high-water mark", used, f"< region ({size:.0f} B)", not over, detail,
+                                   margin=min(timing[f"board_stack_{m}_size_B"] - timing[f"board_stack_{m}_used_B"]
+                                              for m in modes) - 1.0))
     overruns = timing.get("board_uart0_rx_overruns", 0.0) + timing.get("board_uart1_rx_overruns", 0.0)
     out.append(CriterionResult("board: no UART RX overrun", "timing.board_uart*_rx_overruns", "count", overruns,
                                "== 0", overruns == 0,
-                               "" if overruns == 0 else "characters lost to a full RX FIFO: a handler was late"))
+                               "" if overruns == 0 else "characters lost to a full RX FIFO: a handler was late",
+                               margin=-overruns))
     late = timing.get("board_esc_pulses_late", 0.0) + timing.get("board_esc_pulses_missed", 0.0)
     out.append(CriterionResult("board: ESC pulses on time", "timing.board_esc_pulses_*", "count", late, "== 0",
                                late == 0, "" if late == 0 else
                                f"{timing.get('board_esc_pulses_late', 0):.0f} late, "
-                               f"{timing.get('board_esc_pulses_missed', 0):.0f} missed"))
+                               f"{timing.get('board_esc_pulses_missed', 0):.0f} missed", margin=-late))
     return out

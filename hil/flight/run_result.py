@@ -151,7 +151,8 @@ def realtime_criterion(loop: TickLoop, tick_ns: int) -> CriterionResult | None:
     verdict = realtime_held(len(late), st.late_ticks, late.percentile(99) / 1e3, late.max / 1e3, tick_ns / 1e3)
     return CriterionResult("realtime held", "timing.lateness_us", "p99 / max", verdict.max_us,
                            f"p99 <= {tick_ns / 1e3:g}, max <= {REALTIME_MAX_LATE_US:g}", verdict.held,
-                           "" if verdict.held else verdict.text)
+                           "" if verdict.held else verdict.text,
+                           margin=min(tick_ns / 1e3 - verdict.p99_us, REALTIME_MAX_LATE_US - verdict.max_us))
 
 
 def held_stats(stream: TraceStream, name: str) -> StreamingStats:

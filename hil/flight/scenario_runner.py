@@ -13,7 +13,7 @@ from pathlib import Path
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
-from hil.analysis.criteria import CriterionResult
+from hil.analysis.criteria import CriterionResult, margin_of
 from hil.config.scenario import GustEvent, PayloadEvent, Scenario, WindEvent
 
 if TYPE_CHECKING:
@@ -173,7 +173,7 @@ class ScenarioRunner:
             if key in NEEDS_CALIBRATION and self.rig.flight.board:
                 ok = math.isfinite(value) and value <= bound
                 out.append(CriterionResult(f"timing: {field}", f"timing.{field}", "max", value, f"<= {bound:g}", ok,
-                                           _board_detail(value, bound, timing)))
+                                           _board_detail(value, bound, timing), margin=margin_of(value, None, bound)))
                 continue
             if key in NEEDS_CALIBRATION and not self.rig.flight.cpu_scale_source.strip():
                 out.append(CriterionResult(f"timing: {field}", f"timing.{field}", "max", value, f"<= {bound:g}", True,
@@ -181,7 +181,8 @@ class ScenarioRunner:
                 continue
             ok = math.isfinite(value) and value <= bound
             detail = "" if math.isfinite(value) else f"no {field} figure in this run"
-            out.append(CriterionResult(f"timing: {field}", f"timing.{field}", "max", value, f"<= {bound:g}", ok, detail))
+            out.append(CriterionResult(f"timing: {field}", f"timing.{field}", "max", value, f"<= {bound:g}", ok, detail,
+                                       margin=margin_of(value, None, bound)))
         return out
 
 

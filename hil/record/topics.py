@@ -266,7 +266,7 @@ _CRITERION = {"type": "object", "description": "one criterion (hil.analysis.crit
                              "bound": _str("the bound, as written in the scenario"),
                              "passed": _bool("passed (true too when not judged: it does not fail the run)"),
                              "judged": _bool("false: not judged (a compute budget without a calibrated cpu_scale)"),
-                             "detail": _str("free text")},
+                             "margin": _num("to the nearest bound, >= 0 passes"), "detail": _str("free text")},
               "required": ["name", "passed"], "additionalProperties": False}
 VERDICT = _message(
     "hil.Verdict", "How the run ended and the scenario's criteria results.", Stamp.SIM,

@@ -89,7 +89,7 @@ async def test_recorded_file_reads_back_independently(fly, tmp_path: Path) -> No
 async def test_every_tick_reaches_the_log_and_the_trace(fly) -> None:
     """Every tick is in the log and in the trace, the last one included (the recording goes
     to the recorder in batches: the last must be sent before the log is closed)."""
-    from hil.record import read_topic
+    from hil.record import iter_messages
 
     result = await fly("hover", duration_s=1.0)
     assert result.end_reason is EndReason.COMPLETED, explain(result)
@@ -119,7 +119,7 @@ async def test_realtime_mode_runs_on_the_wall_clock(fly) -> None:
     assert t["esc_commands"] > 0
     # whether realtime was held depends on the machine's load: the run and `hil timing` must
     # say the same thing about it, from the lateness recorded per sample
-    from hil.record import read_topic
+    from hil.record import iter_messages
     from hil.analysis.timing import analyze_log
 
     held = [c for c in result.criteria if c.name == "realtime held"]
@@ -236,3 +236,29 @@ async def test_unrecorded_run_judges_as_the_recorded_one(fly) -> None:
         if a.signal.startswith("timing."):
             continue  # host CPU times differ from run to run
         assert a.value == b.value or (math.isnan(a.value) and math.isnan(b.value)), (a, b)
+
+
+async def test_each_verdict_carries_its_margin_to_the_log_and_the_summary(fly) -> None:
+    """A criterion's signed margin (metric units, >= 0 passes) is in the run's result, the
+    MCAP's /hil/verdict and the summary table: a near-miss shows wherever the verdict does."""
+    import io
+
+    from rich.console import Console
+
+    from hil.analysis.summary import print_summary
+    from hil.config.rig import load_rig
+    from hil.record import iter_messages
+
+    result = await fly("arm-idle")
+    assert result.passed, explain(result)
+    assert all(c.margin >= 0 for c in result.criteria if c.judged), result.criteria
+    ((_, _, verdict),) = list(iter_messages(result.log_path, ["/hil/verdict"]))
+    logged = {c["name"]: c["margin"] for c in verdict["criteria"]}
+    for c in result.criteria:
+        assert logged[c.name] == (c.margin if math.isfinite(c.margin) else None), (c, logged[c.name])
+    out = io.StringIO()
+    rig = load_rig()
+    print_summary(Console(file=out, width=250), result, rig, load_scenario(SCENARIOS_DIR / "arm-idle.toml"))
+    text = out.getvalue()
+    stayed = next(c for c in result.criteria if c.name.startswith("it stayed on the ground"))
+    assert "margin" in text and f"{stayed.margin:+.3g}" in text, text

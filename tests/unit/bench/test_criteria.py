@@ -91,7 +91,7 @@ def test_unknown_signal_and_empty_window_fail_with_reason() -> None:
         tr,
     )
     assert not bad.passed and "unknown signal" in bad.detail
-    assert not empty.passed and "no data" in empty.detail
+    assert not empty.passed and empty.detail == "no sample of truth.roll_deg in [100, 200] s"
 
 
 def test_irregular_series_held_on_the_tick_grid() -> None:

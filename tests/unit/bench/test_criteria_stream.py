@@ -23,7 +23,8 @@ from hil.analysis.trace_stream import TraceStream, TraceTee
 
 TICK_NS = 25_000_000  # coarse ticks: a few hundred cover seconds of windows and steps
 METRICS = ["max_abs", "rms", "mean", "min", "max", "final", "p99_abs", "amplitude", "std", "rms_delta",
-           "overshoot", "settling_time", "fraction_saturated", "rise_time", "phase_lag_deg", "rms_change_pct", "increase"]
+           "overshoot", "settling_time", "fraction_saturated", "rise_time", "phase_lag_deg", "rms_change_pct", "increase",
+           "fraction_in", "fraction_finite"]
 SIGNALS = ["truth.a", "truth.b", "esc.p", "esc.p[1]", "tm.x", "truth.a - tm.x", "tm.x - truth.b",
            "truth.a - truth.b", "truth.a - esc.p[2]", "tm.missing", "truth.nope"]
 #: one-column signals (a phase fit of a 3-column field is an error in both, differently)
@@ -51,7 +52,7 @@ def criteria(draw) -> Criterion:
         kw["min"] = -1.0
     kw["window_s"] = draw(windows())
     kw["nonfinite_fraction_max"] = draw(st.sampled_from([0.0, 0.0, 0.3, 1.0]))
-    if metric == "fraction_saturated":
+    if metric in ("fraction_saturated", "fraction_in"):
         kw["lo"], kw["hi"] = draw(st.sampled_from([None, -1.0, 0.0])), draw(st.sampled_from([None, 1.0, 2.0, 30.0]))
     if metric in ("overshoot", "settling_time", "rise_time"):
         kw["step_t_s"] = None if draw(st.integers(0, 9)) == 0 else draw(times_s)
@@ -153,6 +154,30 @@ def test_a_deferred_stream_pumped_in_slices_equals_batch(flight: dict[str, objec
     batch, streamed, stream = fly(flight, crits, calls_per_tick=calls)
     assert stream.late_points == 0 and stream.queued_chunks == 0
     assert_same(batch, streamed)
+
+
+bounds = st.sampled_from([(None, 1.0), (0.5, None), (-5.0, 10.0), (0.0, 0.0), (1.0, 1.0), (None, 0.0)])
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(flight=flights(), crits=st.lists(criteria(), min_size=1, max_size=4), limits=st.lists(bounds, min_size=4,
+                                                                                           max_size=4))
+def test_the_margins_sign_is_the_verdict(flight: dict[str, object], crits: list[Criterion],
+                                         limits: list[tuple[float | None, float | None]]) -> None:
+    """On random traces, batch and streamed: a criterion passes exactly when its margin is >= 0,
+    and the margin is the value's distance to its nearest bound, in the metric's units."""
+    crits = [c.model_copy(update={"min": lo, "max": hi}) for c, (lo, hi) in zip(crits, limits, strict=False)]
+    batch, streamed, _ = fly(flight, crits)
+    for c, r in [*zip(crits, batch, strict=True), *zip(crits, streamed, strict=True)]:
+        assert r.passed == (r.margin >= 0.0), r
+        if math.isfinite(r.value):
+            nearest = min(r.value - c.min if c.min is not None else math.inf,
+                          c.max - r.value if c.max is not None else math.inf)
+            assert r.margin == nearest, r
+        elif math.isnan(r.value):
+            assert r.margin == -math.inf and not r.passed, r
+        else:  # +inf (never settled, never rose): only an unbounded side passes it
+            assert r.passed == (c.max is None and r.value > 0), r
 
 
 @st.composite

@@ -17,7 +17,8 @@ def fake_pass(params: dict[str, Any]) -> dict[str, Any]:
     result = failure(params, "completed", "")
     return result | {"passed": True, "wall_s": 0.0,
                      "criteria": [{"name": "c", "signal": "s", "metric": "max_abs", "value": float(params["seed"]),
-                                   "bound": "<= 100", "passed": True, "detail": ""}]}
+                                   "bound": "<= 100", "passed": True, "margin": 100.0 - float(params["seed"]),
+                                   "detail": ""}]}
 
 
 def die_on_seed_13(params: dict[str, Any]) -> dict[str, Any]:

@@ -8,6 +8,7 @@ import io
 import json
 import os
 import signal
+import math
 import statistics
 import threading
 from pathlib import Path
@@ -151,7 +152,21 @@ def test_a_dead_worker_fails_only_its_own_case(tmp_path: Path) -> None:
     assert by_seed[fake.DIE_SEED]["end_reason"] == "worker died"
     assert run.summary["failed_cases"] == ["0001"]
     assert run.summary["by_scenario"]["hover-2s"]["worst"]["c"] == {"value": 3.0, "bound": "<= 100", "passed": True,
-                                                                    "case_id": "0002"}
+                                                                    "margin": 97.0, "case_id": "0002"}
+
+
+def test_the_worst_case_of_a_criterion_is_its_smallest_margin() -> None:
+    """Whichever way a criterion is bounded, the case nearest to failing it is the worst."""
+    from hil.fleet.campaign_summary import _badness
+
+    def row(value: float, margin: float | None, passed: bool = True) -> dict[str, Any]:
+        return {"value": value, "bound": ">= 1 and <= 3", "margin": margin, "passed": passed}
+
+    near_low, middle, near_high = row(1.1, 0.1), row(2.0, 1.0), row(2.95, 0.05)
+    ranked = sorted([middle, near_low, near_high], key=_badness)
+    assert ranked == [middle, near_low, near_high]
+    assert _badness(row(3.5, -0.5, passed=False)) > _badness(near_high)
+    assert _badness(row(math.nan, None, passed=False)) > _badness(row(3.5, -0.5, passed=False))
 
 
 def _wait_for(path_glob: tuple[Path, str], timeout_s: float = 60.0) -> None:
