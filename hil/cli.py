@@ -11,6 +11,7 @@
     hil build [--groups G]       compile the device models, the plant and the tick path (optional)
     hil firmware build [--target host|arm]   build the C flight code (firmware/)
     hil faults                   the fault catalogue with parameters and units
+    hil mutate / hil falsify S   does the suite catch flight-code bugs / search S's ranges for a failing flight
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from hil.live.options import DevicesLiveOpt, LiveAddrOpt, LiveOpt, LiveTopicsOpt, live_config
+from hil.fleet.falsify import command as falsify_command
 from hil.fleet.mutation import command as mutation_command
 from hil.flight import firmware_build as firmware_command
 from hil.native.sources import Grouping
@@ -33,9 +35,7 @@ app = typer.Typer(
     help="Hardware-in-the-loop bench for the Wang/Ma/Sun quad-rotor MAV. "
     "Exit status of every command: 0 success, 1 a verdict failed (criteria, timing, verify), "
     "2 bad input (an 'error:' line says which file, key or path and why); each command's --help says more.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
+    no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
 )
 console = Console()
 err_console = Console(stderr=True)
@@ -389,7 +389,7 @@ def fidelity(
     raise typer.Exit(0 if ok else 1)
 
 app.command(name="mutate")(mutation_command.mutate)  # hil/fleet/mutation/command.py
-
+app.command(name="falsify")(falsify_command.falsify)  # hil/fleet/falsify/command.py
 app.add_typer(firmware_command.firmware_app, name="firmware")  # hil/flight/firmware_build.py
 
 def main() -> None:  # pragma: no cover - console entry

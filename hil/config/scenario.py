@@ -171,6 +171,28 @@ class Criterion(_Strict):
         return self
 
 
+class Vary(_Strict):
+    """One quantity ``hil falsify`` may vary: a dotted key into this scenario file's own tables
+    (``faults.0.duration_s``, ``scenario.seed``, ``wind.mean_N_mps.0``, ``sticks.1.pulse_us``),
+    its range, and whether it takes whole numbers (a seed)."""
+
+    key: str
+    range: tuple[float, float]
+    integer: bool = False
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Vary:
+        if not self.range[0] < self.range[1]:
+            raise ValueError(f"range of {self.key!r} must be [lo, hi] with lo < hi (got {list(self.range)})")
+        return self
+
+
+class FalsifySpec(_Strict):
+    """``[falsify]``: what ``hil falsify`` may vary (docs/falsify.md)."""
+
+    vary: list[Vary] = Field(min_length=1)
+
+
 class Scenario(_Strict):
     scenario: ScenarioHeader
     flight: dict[str, Any] = {}
@@ -182,6 +204,7 @@ class Scenario(_Strict):
     faults: list[dict[str, Any]] = []
     criteria: list[Criterion] = []
     timing: dict[str, float] = {}
+    falsify: FalsifySpec | None = None
 
     @property
     def name(self) -> str:

@@ -1,0 +1,1 @@
+"""``hil falsify``: a search of a scenario's ranges for the flight that fails (docs/falsify.md)."""

@@ -1,0 +1,102 @@
+"""``hil falsify SCENARIO``: search the scenario's ``[falsify]`` ranges for a flight that fails
+a criterion (docs/falsify.md). Registered by hil/cli.py; the search's imports load when it
+runs, so ``hil --help`` stays fast."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+
+def falsify(
+    scenario: Annotated[Path, typer.Argument(help="A scenario file with a falsify table (what may vary).")],
+    rig: Annotated[Path, typer.Option(help="The rig whose flight code is searched.")] = Path("rigs/paper-quad.toml"),
+    flights: Annotated[int, typer.Option(min=1, help="Flight budget (whole generations).")] = 200,
+    wall_s: Annotated[float | None, typer.Option(min=0.0, help="Wall-time budget, s (checked between generations).")] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the optimiser's draws (the flights' own seeds are points).")] = 1,
+    workers: Annotated[int | None, typer.Option(min=1, help="Flights at once (default: one per two cores).")] = None,
+    scheduler: Annotated[str | None, typer.Option(help="A Dask scheduler address (tls://host:8786).")] = None,
+    executor: Annotated[str, typer.Option(help="auto (Dask if installed), dask or process.")] = "auto",
+    out: Annotated[Path, typer.Option(help="Output directory (a timestamped directory is made in it).")] = Path("logs/falsify"),
+) -> None:
+    """Search for the flight that fails: differential evolution over the ranges of the
+    scenario's falsify table minimises the flight's lowest criterion margin; flights run in
+    parallel on the campaign engine.
+
+    Writes margins.csv, progress.png, search.json and, when a flight failed,
+    counterexample.toml (fly it with hil run RIG -s FILE) and its MCAP.
+
+    Exit status: 0 no flight failed within the budget; 1 a counterexample; 2 bad input; 130
+    interrupted.
+    """
+    from rich.console import Console
+    from rich.markup import escape
+
+    from hil.config import ConfigError
+    from hil.fleet.campaign_executors import dask_available, default_workers, sigterm_as_ctrl_c
+
+    console = Console()
+    if executor not in ("auto", "dask", "process"):
+        console.print(f"[bold red]error:[/] --executor: {escape(executor)!r} is not auto, dask or process")
+        raise typer.Exit(2)
+    use_dask = executor == "dask" or bool(scheduler) or (executor == "auto" and dask_available())
+    try:
+        if use_dask and not dask_available():
+            raise ConfigError("--executor dask: Dask is not installed: pip install 'mav-hil-bench[campaign]'")
+        if not rig.is_file():
+            raise ConfigError(f"{rig}: file not found (--rig)")
+        with sigterm_as_ctrl_c():
+            code = _run(scenario, rig, flights=flights, wall_s=wall_s, seed=seed,
+                        workers=workers or default_workers(), scheduler=scheduler, use_dask=use_dask, out=out,
+                        console=console)
+    except ConfigError as exc:
+        console.print(f"[bold red]error:[/] {escape(str(exc))}", soft_wrap=True)
+        raise typer.Exit(2) from None
+    raise typer.Exit(code)
+
+
+def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed: int, workers: int,
+         scheduler: str | None, use_dask: bool, out: Path, console: Any) -> int:
+    from hil.fleet.campaign import campaign_dir
+    from hil.fleet.falsify.report import write_outputs
+    from hil.fleet.falsify.search import Engine, Flight, run_search
+    from hil.fleet.falsify.space import load_space
+
+    space = load_space(scenario)
+    directory = campaign_dir(out, f"falsify-{space.scenario.name}")
+    engine = Engine(rig.resolve(), workers, use_dask, scheduler, directory)
+    where = f"dask {scheduler}" if scheduler else f"dask LocalCluster x{workers}" if use_dask else f"process pool x{workers}"
+    console.print(f"falsify {space.scenario.name} on {rig}: {', '.join(space.keys)}; at most {flights} flights on "
+                  f"{where} -> {directory}", highlight=False, soft_wrap=True)
+
+    def progress(f: Flight, budget: int) -> None:
+        values = " ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in f.values.items())
+        verdict = "FAIL" if f.objective < 0 else "pass"
+        margin = f"{f.objective:+.3g}" if f.objective > -1e5 else "none"
+        console.print(f"[{f.index + 1}/{budget}] gen {f.generation} {verdict} {values}: lowest margin {margin} "
+                      f"({f.worst})", highlight=False, markup=False, soft_wrap=True)
+
+    search = run_search(space, engine, flights=flights, wall_s=wall_s, seed=seed, on_flight=progress)
+    files = write_outputs(search, space.keys, directory, f"hil falsify {space.scenario.name} ({rig.name})")
+    (directory / "STOP").unlink(missing_ok=True)
+    best, cx = search.best, search.counterexample
+    console.print(f"{len(search.flights)} flights in {search.wall_s:.0f} s; stopped: {search.stopped}", highlight=False)
+    if cx is not None:
+        console.print(f"[bold red]counterexample[/]: flight {cx.index}, {cx.worst} "
+                      f"(scaled margin {cx.objective:+.3g})" if cx.objective > -1e5 else
+                      f"[bold red]counterexample[/]: flight {cx.index}: {escape(cx.worst)}", soft_wrap=True)
+        console.print(f"  reproduce: hil run {rig} -s {files['counterexample']}", highlight=False, soft_wrap=True)
+        if cx.log:
+            console.print(f"  log: {cx.log}", highlight=False, soft_wrap=True)
+    elif best is not None:
+        console.print(f"no flight failed; closest: flight {best.index}, {best.worst} (scaled margin "
+                      f"{best.objective:+.3g}) with {best.values}", highlight=False, soft_wrap=True)
+    console.print(f"table: {files['table']}", highlight=False, soft_wrap=True)
+    if search.stopped == "interrupted":
+        return 130
+    return 1 if cx is not None else 0
+
+
+__all__: list[Any] = ["falsify"]

@@ -1,0 +1,67 @@
+"""The number ``hil falsify`` drives below zero: a flight's lowest criterion margin, each margin
+scaled to its criterion's own bounds so that metres, degrees and shares compare.
+
+| criterion | scale |
+|---|---|
+| bounded both sides (``min`` and ``max``) | half the band, (max - min) / 2 |
+| one bound, not zero | that bound's magnitude |
+| one bound at zero | 1 (the metric's unit) |
+
+A criterion whose metric cannot pass by more than nothing (a share that must be all, ``min =
+1``, or none, ``max = 0``: a reported mode, a downlink's "no value") has margin 0 whenever it
+passes: it counts only when it fails, else it would pin the lowest margin at 0 and hide the
+others. A flight that did not complete (the flight code crashed, the bench stopped it) or a
+criterion without a value (an empty window) is a failure beyond any margin: :data:`FAILED`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from hil.config.scenario import Criterion
+
+#: the objective of a flight that failed without a margin (did not complete, no value)
+FAILED = -1e6
+_SHARES = frozenset({"fraction_in", "fraction_finite", "fraction_saturated"})
+
+
+def scale(c: Criterion) -> float:
+    """A criterion's margin unit for comparing with others (module docstring)."""
+    if c.min is not None and c.max is not None and c.max > c.min:
+        return (c.max - c.min) / 2
+    bound = c.min if c.min is not None else c.max
+    return abs(bound) if bound else 1.0
+
+
+def all_or_nothing(c: Criterion) -> bool:
+    """A share that must be all or none: passing, its margin is always 0."""
+    return c.metric in _SHARES and ((c.min == 1.0 and c.max is None) or (c.max == 0.0 and c.min is None))
+
+
+def robustness(result: Mapping[str, Any], criteria: Mapping[str, Criterion]) -> tuple[float, str]:
+    """(the flight's lowest scaled margin, the criterion that set it) from a campaign result
+    (hil/fleet/campaign_case.py: ``criteria`` with ``margin``, null when it has none)."""
+    if result.get("end_reason") != "completed":
+        return FAILED, f"the flight ended: {result.get('end_reason')} ({result.get('message', '')})"
+    lowest, name = math.inf, ""
+    for r in result.get("criteria", []):
+        margin, passed = r.get("margin"), bool(r.get("passed"))
+        c = criteria.get(r["name"])
+        if margin is None:
+            value = math.inf if passed else FAILED
+        elif c is None:  # the bench's own (timing, board): in its own unit
+            value = float(margin)
+        elif passed and all_or_nothing(c):
+            value = math.inf
+        else:
+            value = float(margin) / scale(c)
+        if not passed:
+            value = min(value, -1e-9)  # a failure is below zero even at a margin of -0.0
+        if value < lowest:
+            lowest, name = value, r["name"]
+    return min(lowest, -FAILED), name  # bounded: the optimiser compares, and inf has no spread
+
+
+__all__ = ["FAILED", "all_or_nothing", "robustness", "scale"]

@@ -1,0 +1,168 @@
+"""The search of ``hil falsify``: differential evolution (SciPy's ``differential_evolution``)
+over a scenario's ``[falsify]`` space, minimising the flight's lowest scaled margin
+(hil/fleet/falsify/objective.py), each generation flown in parallel on the campaign engine
+(Dask or the process pool, the rig and the point's scenario shipped as bytes: no shared
+filesystem needed).
+
+Deterministic per point: a point is a scenario file with fixed values, seed included, flown in
+lockstep; the optimiser's own draws come from ``seed``. The search stops at the end of the
+first generation with a failing flight (the most negative one is the counterexample), or when
+the next generation would pass the flight budget or the wall-time budget has run out.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hil import clock
+from hil.config.scenario import Criterion
+from hil.fleet.campaign_bundle import land_result, rig_files, scenario_files
+from hil.fleet.campaign_executors import run_dask, run_pool
+from hil.fleet.campaign_worker import run_bundled_case
+from hil.fleet.falsify.objective import robustness
+from hil.fleet.falsify.space import Space
+
+
+@dataclass(frozen=True)
+class Flight:
+    """One point flown."""
+
+    index: int
+    generation: int
+    values: dict[str, float | int]
+    objective: float  #: lowest scaled margin (< 0: a criterion failed)
+    worst: str  #: the criterion that set it
+    end_reason: str
+    scenario_file: Path
+    log: str | None  #: its MCAP (kept for failing flights)
+    wall_s: float
+
+
+@dataclass
+class Search:
+    """Everything a search found, in flight order."""
+
+    flights: list[Flight] = field(default_factory=list)
+    stopped: str = ""  #: why the search ended ("counterexample", "flight budget", "wall budget", "converged", "interrupted")
+    wall_s: float = 0.0
+
+    @property
+    def best(self) -> Flight | None:
+        return min(self.flights, key=lambda f: f.objective, default=None)
+
+    @property
+    def counterexample(self) -> Flight | None:
+        best = self.best
+        return best if best is not None and best.objective < 0 else None
+
+
+class _Stop(Exception):
+    def __init__(self, why: str) -> None:
+        super().__init__(why)
+        self.why = why
+
+
+@dataclass(frozen=True)
+class Engine:
+    """Where flights fly: ``workers`` cases at once on Dask (a LocalCluster, or ``scheduler``)
+    or the process pool."""
+
+    rig: Path
+    workers: int
+    use_dask: bool
+    scheduler: str | None
+    out: Path
+    mode: str = "lockstep"
+    case_timeout_s: float = 600.0
+
+    def fly(self, cases: list[dict[str, Any]], handle: Callable[[dict[str, Any]], None]) -> bool:
+        """Fly ``cases``; each landed result to ``handle``. True when interrupted (Ctrl-C)."""
+        stop_file = self.out / "STOP"
+        if self.use_dask:
+            interrupted, _ = run_dask(cases, self.workers, self.scheduler, run_bundled_case, handle, stop_file,
+                                      self.out.name)
+        else:
+            interrupted, _ = run_pool(cases, self.workers, run_bundled_case, handle, stop_file)
+        return interrupted
+
+
+def run_search(space: Space, engine: Engine, *, flights: int, wall_s: float | None, seed: int,
+               on_flight: Callable[[Flight, int], None] = lambda f, n: None) -> Search:
+    """Search ``space`` for a flight that fails; at most ``flights`` flights (whole
+    generations) and ``wall_s`` wall seconds. ``on_flight(flight, budget)``: progress."""
+    from scipy.optimize import differential_evolution
+
+    criteria: dict[str, Criterion] = {c.name: c for c in space.scenario.criteria}
+    shipped_rig, rig_rel = rig_files(engine.rig, {}, Path.cwd())
+    search = Search()
+    t0 = clock.monotonic_ns()
+    generation = 0
+    n_dims = len(space.vary)
+    popsize = max(5, math.ceil(max(engine.workers, 8) / n_dims))  # scipy flies popsize * dims a generation
+
+    def fly_generation(_: Callable[..., float], xs: Any) -> list[float]:
+        nonlocal generation
+        points = [np.asarray(x, dtype=float) for x in xs]
+        if search.flights and len(search.flights) + len(points) > flights:  # the first generation always flies
+            raise _Stop("flight budget")
+        if search.flights and wall_s is not None and (clock.monotonic_ns() - t0) / 1e9 >= wall_s:
+            raise _Stop("wall budget")
+        cases, by_id = [], {}
+        for x in points:
+            index = len(search.flights) + len(cases)
+            values = space.values(x)
+            seed_of = int(values.get("scenario.seed", space.scenario.scenario.seed))
+            path = space.write(values, engine.out / "points" / f"{index:04d}.toml",
+                               f"hil falsify {space.path.name}: point {index}, generation {generation}")
+            shipped_scenario, scenario_rel = scenario_files(path)
+            case_id = f"{index:04d}"
+            by_id[case_id] = (index, values, path)
+            cases.append({
+                "case_id": case_id, "campaign": f"falsify-{space.scenario.name}", "scenario_name": space.scenario.name,
+                "seed": seed_of, "mode": engine.mode, "duration_s": None, "flight_overrides": {},
+                "rig_overrides": {}, "files": {**shipped_rig, **shipped_scenario}, "rig": rig_rel,
+                "scenario": scenario_rel, "log_name": f"{case_id}_{space.scenario.name}_s{seed_of}.mcap",
+                "keep_logs": "failed", "timeout_s": engine.case_timeout_s, "stop_file": str(engine.out / "STOP"),
+                "stop_event": None,
+            })
+        landed: dict[str, Flight] = {}
+
+        def handle(result: dict[str, Any]) -> None:
+            result = land_result(result, engine.out)
+            index, values, path = by_id[result["case_id"]]
+            objective, worst = robustness(result, criteria)
+            flight = Flight(index, generation, values, objective, worst, str(result.get("end_reason")), path,
+                            result.get("log"), float(result.get("wall_s") or 0.0))
+            landed[result["case_id"]] = flight
+            on_flight(flight, flights)
+
+        interrupted = engine.fly(cases, handle)
+        done = [landed[c["case_id"]] for c in cases if c["case_id"] in landed]
+        search.flights.extend(sorted(done, key=lambda f: f.index))
+        generation += 1
+        if interrupted or len(done) < len(cases):
+            raise _Stop("interrupted")
+        if any(f.objective < 0 for f in done):
+            raise _Stop("counterexample")
+        return [f.objective for f in sorted(done, key=lambda f: f.index)]
+
+    try:
+        differential_evolution(
+            lambda x: math.nan,  # never called: fly_generation flies each generation itself
+            space.bounds(), integrality=space.integrality(), seed=seed, popsize=popsize,
+            maxiter=max(1, flights), polish=False, updating="deferred", workers=fly_generation,
+            init="latinhypercube", tol=0.0, atol=0.0)
+        search.stopped = "converged"
+    except _Stop as stop:
+        search.stopped = stop.why
+    search.wall_s = (clock.monotonic_ns() - t0) / 1e9
+    return search
+
+
+__all__ = ["Engine", "Flight", "Search", "run_search"]
