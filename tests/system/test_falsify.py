@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def _scenario(tmp_path: Path, base: str, vary: str) -> Path:
     path = tmp_path / f"{base}-search.toml"
-    path.write_text((ROOT / "rigs" / "scenarios" / f"{base}.toml").read_text().split("[[falsify.vary]]")[0] + vary)
+    path.write_text((ROOT / "rigs" / "scenarios" / f"{base}.toml").read_text().split("\n# What `hil falsify` may vary")[0] + vary)
     return path
 
 

@@ -7,10 +7,10 @@ scaled to its criterion's own bounds so that metres, degrees and shares compare.
 | one bound, not zero | that bound's magnitude |
 | one bound at zero | 1 (the metric's unit) |
 
-A criterion whose metric cannot pass by more than nothing (a share that must be all, ``min =
-1``, or none, ``max = 0``: a reported mode, a downlink's "no value") has margin 0 whenever it
-passes: it counts only when it fails, else it would pin the lowest margin at 0 and hide the
-others. A flight that did not complete (the flight code crashed, the bench stopped it) or a
+A criterion that passes with a margin of exactly 0 cannot pass by more: a share that must be
+all (``min = 1``) or none (``max = 0``), a reported mode, the minimum pulse the watchdog
+commands (``max = 1000`` us, which it sends exactly). Those count only when they fail, else
+they would pin the lowest margin at 0 in every flight and hide the criteria that can move. A flight that did not complete (the flight code crashed, the bench stopped it) or a
 criterion without a value (an empty window) is a failure beyond any margin: :data:`FAILED`.
 """
 
@@ -53,8 +53,8 @@ def robustness(result: Mapping[str, Any], criteria: Mapping[str, Criterion]) -> 
             value = math.inf if passed else FAILED
         elif c is None:  # the bench's own (timing, board): in its own unit
             value = float(margin)
-        elif passed and all_or_nothing(c):
-            value = math.inf
+        elif passed and (margin == 0.0 or all_or_nothing(c)):
+            value = math.inf  # at its limit by design: no nearer to failing in one flight than another
         else:
             value = float(margin) / scale(c)
         if not passed:

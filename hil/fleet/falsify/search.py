@@ -7,7 +7,8 @@ filesystem needed).
 Deterministic per point: a point is a scenario file with fixed values, seed included, flown in
 lockstep; the optimiser's own draws come from ``seed``. The search stops at the end of the
 first generation with a failing flight (the most negative one is the counterexample), or when
-the next generation would pass the flight budget or the wall-time budget has run out.
+the next generation would pass the flight budget or the wall-time budget has run out. A
+population that converged starts again from new draws (a restart) while the budget lasts.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ class Search:
     """Everything a search found, in flight order."""
 
     flights: list[Flight] = field(default_factory=list)
-    stopped: str = ""  #: why the search ended ("counterexample", "flight budget", "wall budget", "converged", "interrupted")
+    stopped: str = ""  #: why the search ended ("counterexample", "flight budget", "wall budget", "interrupted")
     wall_s: float = 0.0
 
     @property
@@ -152,15 +153,18 @@ def run_search(space: Space, engine: Engine, *, flights: int, wall_s: float | No
             raise _Stop("counterexample")
         return [f.objective for f in sorted(done, key=lambda f: f.index)]
 
-    try:
-        differential_evolution(
-            lambda x: math.nan,  # never called: fly_generation flies each generation itself
-            space.bounds(), integrality=space.integrality(), seed=seed, popsize=popsize,
-            maxiter=max(1, flights), polish=False, updating="deferred", workers=fly_generation,
-            init="latinhypercube", tol=0.0, atol=0.0)
-        search.stopped = "converged"
-    except _Stop as stop:
-        search.stopped = stop.why
+    # A population that converged (every flight as far from failing as the others) restarts
+    # from fresh draws while the budget lasts: the search ends on a failure or the budget.
+    for restart in range(flights):
+        try:
+            differential_evolution(
+                lambda x: math.nan,  # never called: fly_generation flies each generation itself
+                space.bounds(), integrality=space.integrality(), seed=seed + 7919 * restart, popsize=popsize,
+                maxiter=max(1, flights), polish=False, updating="deferred", workers=fly_generation,
+                init="latinhypercube", tol=0.0, atol=0.0)
+        except _Stop as stop:
+            search.stopped = stop.why
+            break
     search.wall_s = (clock.monotonic_ns() - t0) / 1e9
     return search
 

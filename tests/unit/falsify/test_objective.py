@@ -28,8 +28,9 @@ def test_below_zero_exactly_when_a_criterion_failed(h: float, r: float, mode_ok:
     value, name = robustness(res, CRITERIA)
     failed = h < 0 or r < 0 or not mode_ok
     assert (value < 0) == failed, (value, name)
-    if not failed:
-        assert math.isclose(value, min(h / 0.2, r / 3.0)), value  # the mode's 0 does not pin it
+    if not failed:  # the mode's 0 does not pin it, nor does a margin of exactly 0 (at a limit by design)
+        expected = min(h / 0.2 if h else math.inf, r / 3.0 if r else math.inf, -FAILED)
+        assert math.isclose(value, expected), value
 
 
 def test_scales_and_failures_without_a_margin() -> None:
