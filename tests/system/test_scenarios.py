@@ -89,7 +89,7 @@ async def test_recorded_file_reads_back_independently(fly, tmp_path: Path) -> No
 async def test_every_tick_reaches_the_log_and_the_trace(fly) -> None:
     """Every tick is in the log and in the trace, the last one included (the recording goes
     to the recorder in batches: the last must be sent before the log is closed)."""
-    from hil.record import iter_messages
+    from hil.record import read_topic
 
     result = await fly("hover", duration_s=1.0)
     assert result.end_reason is EndReason.COMPLETED, explain(result)
@@ -119,7 +119,7 @@ async def test_realtime_mode_runs_on_the_wall_clock(fly) -> None:
     assert t["esc_commands"] > 0
     # whether realtime was held depends on the machine's load: the run and `hil timing` must
     # say the same thing about it, from the lateness recorded per sample
-    from hil.record import iter_messages
+    from hil.record import read_topic
     from hil.analysis.timing import analyze_log
 
     held = [c for c in result.criteria if c.name == "realtime held"]
