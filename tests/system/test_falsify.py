@@ -29,6 +29,14 @@ def _hil(*args: str) -> subprocess.CompletedProcess[str]:
                           timeout=900)
 
 
+def _search(scenario: Path, tmp_path: Path) -> tuple[subprocess.CompletedProcess[str], Path]:
+    """``hil falsify`` on 8 flights, 2 workers; its result and output directory."""
+    run = _hil("falsify", str(scenario), "--flights", "8", "--workers", "2", "--executor", "process",
+               "--out", str(tmp_path / "out"))
+    (directory,) = (tmp_path / "out").iterdir()
+    return run, directory
+
+
 def _verdict(log: Path) -> dict[str, dict[str, object]]:
     ((_, _, verdict),) = list(iter_messages(log, ["/hil/verdict"]))
     return {c["name"]: c for c in verdict["criteria"]}
@@ -40,10 +48,8 @@ def test_a_payload_past_what_it_lifts_is_found_and_its_scenario_reproduces_it(tm
 key = "faults.0.extra_mass_kg"
 range = [0.1, 1.5]
 ''')
-    run = _hil("falsify", str(scenario), "--flights", "8", "--workers", "2", "--executor", "process",
-               "--out", str(tmp_path / "out"))
+    run, directory = _search(scenario, tmp_path)
     assert run.returncode == 1, run.stdout + run.stderr
-    (directory,) = (tmp_path / "out").iterdir()
     summary = json.loads((directory / "search.json").read_text())
     cx = summary["counterexample"]
     assert summary["stopped"] == "counterexample" and cx["lowest_scaled_margin"] < 0, summary
@@ -67,11 +73,9 @@ def test_a_range_the_flight_code_survives_ends_with_0_and_the_closest_margin(tmp
 key = "faults.0.duration_s"
 range = [0.15, 0.3]
 ''')
-    run = _hil("falsify", str(scenario), "--flights", "8", "--workers", "2", "--executor", "process",
-               "--out", str(tmp_path / "out"))
+    run, directory = _search(scenario, tmp_path)
     assert run.returncode == 0, run.stdout + run.stderr
     assert "no flight failed; closest: flight" in run.stdout, run.stdout
-    (directory,) = (tmp_path / "out").iterdir()
     summary = json.loads((directory / "search.json").read_text())
     assert summary["counterexample"] is None and summary["best"]["lowest_scaled_margin"] >= 0
     assert not (directory / "counterexample.toml").exists()

@@ -24,7 +24,6 @@ from hil.config.scenario import Criterion
 
 #: the objective of a flight that failed without a margin (did not complete, no value)
 FAILED = -1e6
-_SHARES = frozenset({"fraction_in", "fraction_finite", "fraction_saturated"})
 
 
 def scale(c: Criterion) -> float:
@@ -33,11 +32,6 @@ def scale(c: Criterion) -> float:
         return (c.max - c.min) / 2
     bound = c.min if c.min is not None else c.max
     return abs(bound) if bound else 1.0
-
-
-def all_or_nothing(c: Criterion) -> bool:
-    """A share that must be all or none: passing, its margin is always 0."""
-    return c.metric in _SHARES and ((c.min == 1.0 and c.max is None) or (c.max == 0.0 and c.min is None))
 
 
 def robustness(result: Mapping[str, Any], criteria: Mapping[str, Criterion]) -> tuple[float, str]:
@@ -53,7 +47,7 @@ def robustness(result: Mapping[str, Any], criteria: Mapping[str, Criterion]) -> 
             value = math.inf if passed else FAILED
         elif c is None:  # the bench's own (timing, board): in its own unit
             value = float(margin)
-        elif passed and (margin == 0.0 or all_or_nothing(c)):
+        elif passed and margin == 0.0:  # a share that must be all or none passes only at 0
             value = math.inf  # at its limit by design: no nearer to failing in one flight than another
         else:
             value = float(margin) / scale(c)
@@ -64,4 +58,4 @@ def robustness(result: Mapping[str, Any], criteria: Mapping[str, Criterion]) -> 
     return min(lowest, -FAILED), name  # bounded: the optimiser compares, and inf has no spread
 
 
-__all__ = ["FAILED", "all_or_nothing", "robustness", "scale"]
+__all__ = ["FAILED", "robustness", "scale"]
