@@ -182,7 +182,14 @@ async def test_flight_code_flies_through_null_modems(tmp_path: Path) -> None:
 
     names = ("imu", "adc", "rc", "esc", "telemetry")
     base = tomllib.loads((REPO / "rigs" / "paper-quad.toml").read_text())
-    base.setdefault("flight", {})["config"] = str(REPO / "rigs" / "flightcode-paper-quad.toml")
+    # Realtime through five relays on a loaded machine: a boot reply can take longer than the
+    # shipped 0.25 s (a real MTi answers in milliseconds). A late reply is not what this test is
+    # about, so the boot waits are roomier here.
+    flight_cfg = tomllib.loads((REPO / "rigs" / "flightcode-paper-quad.toml").read_text())
+    flight_cfg["imu"]["reply_timeout_s"] = 2.0
+    flight_cfg["adc"]["reply_timeout_s"] = 1.0
+    (tmp_path / "flightcode.toml").write_text(tomli_w.dumps(flight_cfg))
+    base.setdefault("flight", {})["config"] = str(tmp_path / "flightcode.toml")
     async with null_modem(tmp_path, "imu") as imu, null_modem(tmp_path, "adc") as adc, \
             null_modem(tmp_path, "rc") as rc, null_modem(tmp_path, "esc") as esc, \
             null_modem(tmp_path, "telemetry") as tm:
