@@ -20,13 +20,16 @@ def falsify(
     scheduler: Annotated[str | None, typer.Option(help="A Dask scheduler address (tls://host:8786).")] = None,
     executor: Annotated[str, typer.Option(help="auto (Dask if installed), dask or process.")] = "auto",
     out: Annotated[Path, typer.Option(help="Output directory (a timestamped directory is made in it).")] = Path("logs/falsify"),
+    mutant: Annotated[str | None, typer.Option(help="Search against this catalogue mutant (its id) instead of the flight code.")] = None,
+    catalogue: Annotated[Path, typer.Option(help="The edit catalogue --mutant names (TOML).")] = Path("rigs/mutation/flightcode.toml"),
 ) -> None:
     """Search for the flight that fails: differential evolution over the ranges of the
     scenario's falsify table minimises the flight's lowest criterion margin; flights run in
     parallel on the campaign engine.
 
     Writes margins.csv, progress.png, search.json and, when a flight failed,
-    counterexample.toml (fly it with hil run RIG -s FILE) and its MCAP.
+    counterexample.toml (fly it with hil run RIG -s FILE) and its MCAP. With --mutant, the
+    mutant's tree is flown and written to the output directory (mutant/, mutant.diff).
 
     Exit status: 0 no flight failed within the budget; 1 a counterexample; 2 bad input; 130
     interrupted.
@@ -50,7 +53,7 @@ def falsify(
         with sigterm_as_ctrl_c():
             code = _run(scenario, rig, flights=flights, wall_s=wall_s, seed=seed,
                         workers=workers or default_workers(), scheduler=scheduler, use_dask=use_dask, out=out,
-                        console=console)
+                        console=console, mutant=mutant, catalogue=catalogue)
     except ConfigError as exc:
         console.print(f"[bold red]error:[/] {escape(str(exc))}", soft_wrap=True)
         raise typer.Exit(2) from None
@@ -58,18 +61,25 @@ def falsify(
 
 
 def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed: int, workers: int,
-         scheduler: str | None, use_dask: bool, out: Path, console: Any) -> int:
+         scheduler: str | None, use_dask: bool, out: Path, console: Any, mutant: str | None = None,
+         catalogue: Path | None = None) -> int:
     from hil.fleet.campaign import campaign_dir
     from hil.fleet.falsify.report import write_outputs
+    from hil.fleet.falsify.mutant import load_mutant
     from hil.fleet.falsify.search import Engine, Flight, run_search
     from hil.fleet.falsify.space import load_space
 
     space = load_space(scenario)
-    directory = campaign_dir(out, f"falsify-{space.scenario.name}")
-    engine = Engine(rig.resolve(), workers, use_dask, scheduler, directory)
+    target = None if mutant is None else load_mutant(catalogue or Path("rigs/mutation/flightcode.toml"), mutant)
+    name = space.scenario.name if target is None else f"{space.scenario.name}-{target.id}"
+    directory = campaign_dir(out, f"falsify-{name}")
+    engine = Engine(rig.resolve(), workers, use_dask, scheduler, directory,
+                    extra_files={} if target is None else target.bundle())
     where = f"dask {scheduler}" if scheduler else f"dask LocalCluster x{workers}" if use_dask else f"process pool x{workers}"
-    console.print(f"falsify {space.scenario.name} on {rig}: {', '.join(space.keys)}; at most {flights} flights on "
-                  f"{where} -> {directory}", highlight=False, soft_wrap=True)
+    against = "" if target is None else f" against mutant {target.id} ({target.effect})"
+    console.print(f"falsify {space.scenario.name} on {rig}{against}: {', '.join(space.keys)}; at most {flights} "
+                  f"flights on {where} -> {directory}", highlight=False, soft_wrap=True, markup=False)
+    mutant_dir = None if target is None else target.write(directory)
 
     def progress(f: Flight, budget: int) -> None:
         values = " ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in f.values.items())
@@ -79,7 +89,7 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
                       f"({f.worst})", highlight=False, markup=False, soft_wrap=True)
 
     search = run_search(space, engine, flights=flights, wall_s=wall_s, seed=seed, on_flight=progress)
-    files = write_outputs(search, space.keys, directory, f"hil falsify {space.scenario.name} ({rig.name})")
+    files = write_outputs(search, space.keys, directory, f"hil falsify {name} ({rig.name})")
     (directory / "STOP").unlink(missing_ok=True)
     best, cx = search.best, search.counterexample
     console.print(f"{len(search.flights)} flights in {search.wall_s:.0f} s; stopped: {search.stopped}", highlight=False)
@@ -87,7 +97,9 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
         console.print(f"[bold red]counterexample[/]: flight {cx.index}, {cx.worst} "
                       f"(scaled margin {cx.objective:+.3g})" if cx.objective > -1e5 else
                       f"[bold red]counterexample[/]: flight {cx.index}: {escape(cx.worst)}", soft_wrap=True)
-        console.print(f"  reproduce: hil run {rig} -s {files['counterexample']}", highlight=False, soft_wrap=True)
+        reproduce = (f"hil run {rig} -s {files['counterexample']}" if mutant_dir is None else
+                     f"(cd {mutant_dir.resolve()} && hil run {rig.resolve()} -s {Path(files['counterexample']).resolve()})")
+        console.print(f"  reproduce: {reproduce}", highlight=False, soft_wrap=True, markup=False)
         if cx.log:
             console.print(f"  log: {cx.log}", highlight=False, soft_wrap=True)
     elif best is not None:

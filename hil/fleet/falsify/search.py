@@ -81,6 +81,8 @@ class Engine:
     out: Path
     mode: str = "lockstep"
     case_timeout_s: float = 600.0
+    #: more files every case carries (a mutant's tree: hil/fleet/falsify/mutant.py)
+    extra_files: dict[str, tuple[int, bytes]] = field(default_factory=dict)
 
     def fly(self, cases: list[dict[str, Any]], handle: Callable[[dict[str, Any]], None]) -> bool:
         """Fly ``cases``; each landed result to ``handle``. True when interrupted (Ctrl-C)."""
@@ -127,7 +129,7 @@ def run_search(space: Space, engine: Engine, *, flights: int, wall_s: float | No
             cases.append({
                 "case_id": case_id, "campaign": f"falsify-{space.scenario.name}", "scenario_name": space.scenario.name,
                 "seed": seed_of, "mode": engine.mode, "duration_s": None, "flight_overrides": {},
-                "rig_overrides": {}, "files": {**shipped_rig, **shipped_scenario}, "rig": rig_rel,
+                "rig_overrides": {}, "files": {**shipped_rig, **shipped_scenario, **engine.extra_files}, "rig": rig_rel,
                 "scenario": scenario_rel, "log_name": f"{case_id}_{space.scenario.name}_s{seed_of}.mcap",
                 "keep_logs": "failed", "timeout_s": engine.case_timeout_s, "stop_file": str(engine.out / "STOP"),
                 "stop_event": None,
