@@ -63,6 +63,8 @@ def falsify(
 def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed: int, workers: int,
          scheduler: str | None, use_dask: bool, out: Path, console: Any, mutant: str | None = None,
          catalogue: Path | None = None) -> int:
+    from rich.markup import escape
+
     from hil.fleet.campaign import campaign_dir
     from hil.fleet.falsify.report import write_outputs
     from hil.fleet.falsify.mutant import load_mutant
@@ -94,7 +96,7 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
     best, cx = search.best, search.counterexample
     console.print(f"{len(search.flights)} flights in {search.wall_s:.0f} s; stopped: {search.stopped}", highlight=False)
     if cx is not None:
-        console.print(f"[bold red]counterexample[/]: flight {cx.index}, {cx.worst} "
+        console.print(f"[bold red]counterexample[/]: flight {cx.index}, {escape(cx.worst)} "
                       f"(scaled margin {cx.objective:+.3g})" if cx.objective > -1e5 else
                       f"[bold red]counterexample[/]: flight {cx.index}: {escape(cx.worst)}", soft_wrap=True)
         reproduce = (f"hil run {rig} -s {files['counterexample']}" if mutant_dir is None else
