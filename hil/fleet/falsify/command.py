@@ -68,7 +68,7 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
     from hil.fleet.campaign import campaign_dir
     from hil.fleet.falsify.report import write_outputs
     from hil.fleet.falsify.mutant import load_mutant
-    from hil.fleet.falsify.search import Engine, Flight, run_search
+    from hil.fleet.falsify.search import Engine, Flight, fly_reference, run_search
     from hil.fleet.falsify.space import load_space
 
     space = load_space(scenario)
@@ -91,7 +91,12 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
                       f"({f.worst})", highlight=False, markup=False, soft_wrap=True)
 
     search = run_search(space, engine, flights=flights, wall_s=wall_s, seed=seed, on_flight=progress)
-    files = write_outputs(search, space.keys, directory, f"hil falsify {name} ({rig.name})")
+    reference = None
+    if target is not None and search.counterexample is not None:
+        console.print("the counterexample's flight on the unmodified flight code...", highlight=False)
+        reference = fly_reference(space, engine, search.counterexample)
+    files = write_outputs(search, space.keys, directory, f"hil falsify {name} ({rig.name})",
+                          mutant=None if target is None else target.id, reference=reference)
     (directory / "STOP").unlink(missing_ok=True)
     best, cx = search.best, search.counterexample
     console.print(f"{len(search.flights)} flights in {search.wall_s:.0f} s; stopped: {search.stopped}", highlight=False)
@@ -104,6 +109,13 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
         console.print(f"  reproduce: {reproduce}", highlight=False, soft_wrap=True, markup=False)
         if cx.log:
             console.print(f"  log: {cx.log}", highlight=False, soft_wrap=True)
+        if reference is not None:
+            ref = f"{reference.objective:+.3g}" if reference.objective > -1e5 else reference.end_reason
+            console.print(f"  the unmodified flight code on it: {'passes' if reference.objective >= 0 else 'fails'} "
+                          f"(lowest scaled margin {ref}, {reference.worst}): "
+                          + ("the search separates the mutant" if reference.objective >= 0 else
+                             "the point is past what the flight code survives, not a separation"),
+                          highlight=False, soft_wrap=True, markup=False)
     elif best is not None:
         console.print(f"no flight failed; closest: flight {best.index}, {best.worst} (scaled margin "
                       f"{best.objective:+.3g}) with {best.values}", highlight=False, soft_wrap=True)

@@ -13,6 +13,7 @@ population that converged starts again from new draws (a restart) while the budg
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -84,6 +85,20 @@ class Engine:
     #: more files every case carries (a mutant's tree: hil/fleet/falsify/mutant.py)
     extra_files: dict[str, tuple[int, bytes]] = field(default_factory=dict)
 
+    def case(self, space: Space, case_id: str, values: dict[str, float | int], path: Path) -> dict[str, Any]:
+        """The flight of the point scenario ``path`` as a campaign case, its files as bytes."""
+        shipped_rig, rig_rel = rig_files(self.rig, {}, Path.cwd())
+        shipped_scenario, scenario_rel = scenario_files(path)
+        name = space.scenario.name
+        seed = int(values.get("scenario.seed", space.scenario.scenario.seed))
+        return {
+            "case_id": case_id, "campaign": f"falsify-{name}", "scenario_name": name, "seed": seed,
+            "mode": self.mode, "duration_s": None, "flight_overrides": {}, "rig_overrides": {},
+            "files": {**shipped_rig, **shipped_scenario, **self.extra_files}, "rig": rig_rel,
+            "scenario": scenario_rel, "log_name": f"{case_id}_{name}_s{seed}.mcap", "keep_logs": "failed",
+            "timeout_s": self.case_timeout_s, "stop_file": str(self.out / "STOP"), "stop_event": None,
+        }
+
     def fly(self, cases: list[dict[str, Any]], handle: Callable[[dict[str, Any]], None]) -> bool:
         """Fly ``cases``; each landed result to ``handle``. True when interrupted (Ctrl-C)."""
         stop_file = self.out / "STOP"
@@ -102,7 +117,6 @@ def run_search(space: Space, engine: Engine, *, flights: int, wall_s: float | No
     from scipy.optimize import differential_evolution
 
     criteria: dict[str, Criterion] = {c.name: c for c in space.scenario.criteria}
-    shipped_rig, rig_rel = rig_files(engine.rig, {}, Path.cwd())
     search = Search()
     t0 = clock.monotonic_ns()
     generation = 0
@@ -116,24 +130,16 @@ def run_search(space: Space, engine: Engine, *, flights: int, wall_s: float | No
             raise _Stop("flight budget")
         if search.flights and wall_s is not None and (clock.monotonic_ns() - t0) / 1e9 >= wall_s:
             raise _Stop("wall budget")
-        cases, by_id = [], {}
+        cases: list[dict[str, Any]] = []
+        by_id: dict[str, tuple[int, dict[str, float | int], Path]] = {}
         for x in points:
             index = len(search.flights) + len(cases)
             values = space.values(x)
-            seed_of = int(values.get("scenario.seed", space.scenario.scenario.seed))
             path = space.write(values, engine.out / "points" / f"{index:04d}.toml",
                                f"hil falsify {space.path.name}: point {index}, generation {generation}")
-            shipped_scenario, scenario_rel = scenario_files(path)
             case_id = f"{index:04d}"
             by_id[case_id] = (index, values, path)
-            cases.append({
-                "case_id": case_id, "campaign": f"falsify-{space.scenario.name}", "scenario_name": space.scenario.name,
-                "seed": seed_of, "mode": engine.mode, "duration_s": None, "flight_overrides": {},
-                "rig_overrides": {}, "files": {**shipped_rig, **shipped_scenario, **engine.extra_files}, "rig": rig_rel,
-                "scenario": scenario_rel, "log_name": f"{case_id}_{space.scenario.name}_s{seed_of}.mcap",
-                "keep_logs": "failed", "timeout_s": engine.case_timeout_s, "stop_file": str(engine.out / "STOP"),
-                "stop_event": None,
-            })
+            cases.append(engine.case(space, case_id, values, path))
         landed: dict[str, Flight] = {}
 
         def handle(result: dict[str, Any]) -> None:
@@ -171,4 +177,18 @@ def run_search(space: Space, engine: Engine, *, flights: int, wall_s: float | No
     return search
 
 
-__all__ = ["Engine", "Flight", "Search", "run_search"]
+def fly_reference(space: Space, engine: Engine, flight: Flight) -> Flight | None:
+    """``flight``'s point flown again without the engine's extra files: with ``--mutant``, the
+    unmodified flight code on the mutant's counterexample. It separates the two when this
+    flight passes. None when interrupted."""
+    plain = dataclasses.replace(engine, extra_files={})
+    landed: list[dict[str, Any]] = []
+    if plain.fly([plain.case(space, "reference", flight.values, flight.scenario_file)], landed.append) or not landed:
+        return None
+    result = land_result(landed[0], engine.out)
+    objective, worst = robustness(result, {c.name: c for c in space.scenario.criteria})
+    return Flight(flight.index, flight.generation, flight.values, objective, worst, str(result.get("end_reason")),
+                  flight.scenario_file, result.get("log"), float(result.get("wall_s") or 0.0))
+
+
+__all__ = ["Engine", "Flight", "Search", "fly_reference", "run_search"]

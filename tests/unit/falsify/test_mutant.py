@@ -3,9 +3,12 @@ context files, and an unknown id or a stale edit is an error naming the catalogu
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import subprocess
 import sys
+import tomllib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -14,9 +17,9 @@ import pytest
 from hil.config import ConfigError
 from hil.fleet.campaign_bundle import WORK_DIR
 from hil.fleet.falsify.mutant import load_mutant
-from hil.fleet.falsify.search import run_search
+from hil.fleet.falsify.search import fly_reference, run_search
 from hil.fleet.falsify.space import load_space
-from tests.unit.falsify.test_search import judge
+from tests.unit.falsify.test_search import Judge, judge
 from tests.unit.falsify.test_space import MASS_AND_SEED, scenario
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -92,8 +95,6 @@ def test_every_case_of_the_search_carries_the_mutant(tmp_path: Path) -> None:
 
 def test_the_shipped_catalogue_loads_every_mutant() -> None:
     """Each entry of the Python catalogue still applies to flightcode/ (as hil mutate needs)."""
-    import tomllib
-
     path = ROOT / "rigs" / "mutation" / "flightcode.toml"
     ids = [m["id"] for m in tomllib.loads(path.read_text())["mutant"]]
     cwd = os.getcwd()
@@ -112,3 +113,34 @@ def test_cli_error_for_an_unknown_mutant_is_rc_2(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert "error: rigs/mutation/flightcode.toml: --mutant: no mutant 'nope'" in proc.stdout
     assert list(tmp_path.iterdir()) == []
+
+
+@dataclass(frozen=True)
+class MutantJudge(Judge):
+    """The mutant fails past 0.3 kg, the flight code past 0.6 kg."""
+
+    def fly(self, cases: list[dict[str, Any]], handle: Any) -> bool:
+        for case in cases:
+            mass = tomllib.loads(case["files"][case["scenario"]][1].decode())["faults"][0]["extra_mass_kg"]
+            m = (0.3 if f"{WORK_DIR}/fc/ops.py" in case["files"] else 0.6) - mass
+            handle({"case_id": case["case_id"], "end_reason": "completed", "wall_s": 0.0,
+                    "criteria": [{"name": "altitude recovers", "margin": m, "passed": m >= 0}]})
+        return False
+
+
+def test_the_reference_flight_says_whether_a_counterexample_separates(tmp_path: Path) -> None:
+    base = judge(tmp_path)
+    engine = MutantJudge(base.rig, 2, False, None, base.out,
+                         extra_files=load_mutant(_catalogue(tmp_path), "add-is-sub").bundle())
+    space = load_space(scenario(tmp_path, MASS_AND_SEED))
+    search = run_search(space, engine, flights=200, wall_s=None, seed=3)
+    cx = search.counterexample
+    assert cx is not None and cx.values["faults.0.extra_mass_kg"] > 0.3
+    ref = fly_reference(space, engine, cx)
+    assert ref is not None and ref.values == cx.values
+    assert (ref.objective >= 0) == (cx.values["faults.0.extra_mass_kg"] <= 0.6)
+    # a point past what the flight code itself survives is no separation
+    heavy = dataclasses.replace(cx, values={**cx.values, "faults.0.extra_mass_kg": 0.9})
+    space.write(heavy.values, heavy.scenario_file, "heavier")
+    ref = fly_reference(space, engine, heavy)
+    assert ref is not None and ref.objective < 0
