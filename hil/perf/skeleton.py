@@ -27,6 +27,8 @@ import time
 import tty
 from dataclasses import dataclass
 
+from hil.flight.spawn import uncancelled_start
+
 IMU_N, RC_N, RC_EVERY = 69, 108, 9
 ADC_REQ_N, ADC_RESP_N = 24, 24
 ESC_N, TM_N, TM_EVERY = 11, 46, 8
@@ -80,14 +82,25 @@ async def run_skeleton(seconds: float) -> SkeletonResult:
     masters: dict[str, int] = {}
     slaves: dict[str, int] = {}
     paths = []
-    for name in PORTS:
-        m, s = os.openpty()
-        tty.setraw(s)
-        os.set_blocking(m, False)
-        masters[name], slaves[name] = m, s
-        paths.append(os.ttyname(s))
-    proc = await asyncio.create_subprocess_exec(sys.executable, "-m", "hil.perf.skeleton", *paths,
-                                                stdin=asyncio.subprocess.DEVNULL, stderr=asyncio.subprocess.DEVNULL)
+    try:
+        for name in PORTS:
+            m, s = os.openpty()
+            masters[name], slaves[name] = m, s
+            tty.setraw(s)
+            os.set_blocking(m, False)
+            paths.append(os.ttyname(s))
+        # started as hil run starts a flight command: a Ctrl-C meanwhile cannot hang the start
+        # (hil/flight/spawn.py)
+        spawn = asyncio.ensure_future(loop.subprocess_exec(
+            lambda: asyncio.subprocess.SubprocessStreamProtocol(limit=2**16, loop=loop),
+            sys.executable, "-m", "hil.perf.skeleton", *paths, stdin=asyncio.subprocess.DEVNULL, stdout=None,
+            stderr=asyncio.subprocess.DEVNULL))
+        transport, protocol = await uncancelled_start(spawn)
+    except BaseException:
+        for fd in (*masters.values(), *slaves.values()):
+            os.close(fd)
+        raise
+    proc = asyncio.subprocess.Process(transport, protocol, loop)
     counts = {"adc": 0, "esc": 0}
     waiter: list[asyncio.Future[None] | None] = [None]
     need = {"adc": ADC_REQ_N, "esc": ESC_N}
