@@ -149,7 +149,7 @@ def run_search(space: Space, engine: Engine, *, flights: int, wall_s: float | No
             flight = Flight(index, generation, values, objective, worst, str(result.get("end_reason")), path,
                             result.get("log"), float(result.get("wall_s") or 0.0))
             landed[result["case_id"]] = flight
-            on_flight(flight, flights)
+            on_flight(flight, max(flights, len(points)))  # a first generation larger than the budget flies whole
 
         interrupted = engine.fly(cases, handle)
         done = [landed[c["case_id"]] for c in cases if c["case_id"] in landed]

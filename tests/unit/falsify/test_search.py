@@ -60,3 +60,14 @@ def test_the_same_seed_is_the_same_search(tmp_path: Path) -> None:
     a = run_search(space, judge(tmp_path), flights=60, wall_s=None, seed=5)
     b = run_search(space, judge(tmp_path), flights=60, wall_s=None, seed=5)
     assert [f.values for f in a.flights] == [f.values for f in b.flights]
+
+
+def test_progress_never_counts_past_its_budget(tmp_path: Path) -> None:
+    """A budget smaller than the first generation: that generation flies whole, and the
+    progress's budget is the generation's size ([10/10], never [10/4])."""
+    seen: list[tuple[int, int]] = []
+    space = load_space(scenario(tmp_path, MASS_AND_SEED))
+    search = run_search(space, judge(tmp_path, margin=lambda mass: 0.25), flights=4, wall_s=None, seed=3,
+                        on_flight=lambda f, budget: seen.append((f.index + 1, budget)))
+    assert len(search.flights) == 10 and search.stopped == "flight budget"
+    assert all(i <= budget for i, budget in seen) and {b for _, b in seen} == {10}
