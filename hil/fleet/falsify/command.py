@@ -110,7 +110,7 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
         if cx.log:
             console.print(f"  log: {cx.log}", highlight=False, soft_wrap=True)
         if reference is not None:
-            ref = f"{reference.objective:+.3g}" if reference.objective > -1e5 else reference.end_reason
+            ref = f"{reference.objective:+.3g}" if reference.objective > -1e5 else "none"
             console.print(f"  the unmodified flight code on it: {'passes' if reference.objective >= 0 else 'fails'} "
                           f"(lowest scaled margin {ref}, {reference.worst}): "
                           + ("the search separates the mutant" if reference.objective >= 0 else
