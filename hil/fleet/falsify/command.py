@@ -9,6 +9,8 @@ from typing import Annotated, Any
 
 import typer
 
+from hil.fleet.mutation.command import DEFAULT_CATALOGUE
+
 
 def falsify(
     scenario: Annotated[Path, typer.Argument(help="A scenario file with a falsify table (what may vary).")],
@@ -21,7 +23,7 @@ def falsify(
     executor: Annotated[str, typer.Option(help="auto (Dask if installed), dask or process.")] = "auto",
     out: Annotated[Path, typer.Option(help="Output directory (a timestamped directory is made in it).")] = Path("logs/falsify"),
     mutant: Annotated[str | None, typer.Option(help="Search against this catalogue mutant (its id) instead of the flight code.")] = None,
-    catalogue: Annotated[Path, typer.Option(help="The edit catalogue --mutant names (TOML).")] = Path("rigs/mutation/flightcode.toml"),
+    catalogue: Annotated[Path, typer.Option(help="The edit catalogue --mutant names (TOML).")] = DEFAULT_CATALOGUE,
 ) -> None:
     """Search for the flight that fails: differential evolution over the ranges of the
     scenario's falsify table minimises the flight's lowest criterion margin; flights run in
@@ -62,7 +64,7 @@ def falsify(
 
 def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed: int, workers: int,
          scheduler: str | None, use_dask: bool, out: Path, console: Any, mutant: str | None = None,
-         catalogue: Path | None = None) -> int:
+         catalogue: Path = DEFAULT_CATALOGUE) -> int:
     from rich.markup import escape
 
     from hil.fleet.campaign import campaign_dir
@@ -72,7 +74,7 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
     from hil.fleet.falsify.space import load_space
 
     space = load_space(scenario)
-    target = None if mutant is None else load_mutant(catalogue or Path("rigs/mutation/flightcode.toml"), mutant)
+    target = None if mutant is None else load_mutant(catalogue, mutant)
     name = space.scenario.name if target is None else f"{space.scenario.name}-{target.id}"
     directory = campaign_dir(out, f"falsify-{name}")
     engine = Engine(rig.resolve(), workers, use_dask, scheduler, directory,

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hil.config import ConfigError
-from hil.fleet.campaign_bundle import WORK_DIR
+from hil.fleet.campaign_bundle import WORK_DIR, Files
 from hil.fleet.mutation.catalogue import load_catalogue
 from hil.fleet.mutation.edits import Edit, context, diff, edited, materialize, snapshot
 
@@ -28,12 +28,11 @@ class MutantTree:
 
     id: str
     effect: str
-    tree_name: str
     diff: str
     #: the edited tree and the context files, relative path (under the work directory) -> bytes
     sources: dict[str, bytes]
 
-    def bundle(self) -> dict[str, tuple[int, bytes]]:
+    def bundle(self) -> Files:
         """The files a case carries (hil/fleet/campaign_bundle.py's form: path -> (mode, bytes))."""
         return {f"{WORK_DIR}/{rel}": (_MODE, data) for rel, data in self.sources.items()}
 
@@ -59,7 +58,7 @@ def load_mutant(catalogue: Path, mutant_id: str, tree: Path | None = None) -> Mu
     edits = [Edit(m.file, m.old, m.new)]
     sources = {f"{root.name}/{rel}": data for rel, data in edited(files, edits, what=f"{catalogue}: {m.id}").items()}
     sources.update(context(Path("."), cat.target.context, what=str(catalogue)))
-    return MutantTree(m.id, m.effect, root.name, diff(files, edits, root.name), sources)
+    return MutantTree(m.id, m.effect, diff(files, edits, root.name), sources)
 
 
 __all__ = ["MutantTree", "load_mutant"]

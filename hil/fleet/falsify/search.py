@@ -14,6 +14,7 @@ population that converged starts again from new draws (a restart) while the budg
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -24,7 +25,7 @@ import numpy as np
 
 from hil import clock
 from hil.config.scenario import Criterion
-from hil.fleet.campaign_bundle import land_result, rig_files, scenario_files
+from hil.fleet.campaign_bundle import Files, land_result, rig_files, scenario_files
 from hil.fleet.campaign_executors import run_dask, run_pool
 from hil.fleet.campaign_worker import run_bundled_case
 from hil.fleet.falsify.objective import robustness
@@ -83,11 +84,16 @@ class Engine:
     mode: str = "lockstep"
     case_timeout_s: float = 600.0
     #: more files every case carries (a mutant's tree: hil/fleet/falsify/mutant.py)
-    extra_files: dict[str, tuple[int, bytes]] = field(default_factory=dict)
+    extra_files: Files = field(default_factory=dict)
+
+    @functools.cached_property
+    def _rig(self) -> tuple[Files, str]:
+        """The rig's files as bytes and its relative path among them (read once per engine)."""
+        return rig_files(self.rig, {}, Path.cwd())
 
     def case(self, space: Space, case_id: str, values: dict[str, float | int], path: Path) -> dict[str, Any]:
         """The flight of the point scenario ``path`` as a campaign case, its files as bytes."""
-        shipped_rig, rig_rel = rig_files(self.rig, {}, Path.cwd())
+        shipped_rig, rig_rel = self._rig
         shipped_scenario, scenario_rel = scenario_files(path)
         name = space.scenario.name
         seed = int(values.get("scenario.seed", space.scenario.scenario.seed))

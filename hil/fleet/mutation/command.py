@@ -11,14 +11,15 @@ from typing import Annotated, Any
 
 import typer
 
-_DEFAULT_CATALOGUE = Path("rigs/mutation/flightcode.toml")
+#: the Python flight code's catalogue (`hil falsify --mutant` names it too)
+DEFAULT_CATALOGUE = Path("rigs/mutation/flightcode.toml")
 
 
 def mutate(
     rig: Annotated[Path, typer.Option(help="The rig whose [flight] command flies each mutant.")] = Path("rigs/paper-quad.toml"),
     scenarios: Annotated[list[Path] | None, typer.Option("--scenario", "-s", help="Scenario files or directories (default rigs/scenarios).")] = None,
     exclude: Annotated[list[str] | None, typer.Option(help="Scenario names left out (expected to fail, e.g. paper-literal-weights).")] = None,
-    catalogue: Annotated[Path, typer.Option(help="The edit catalogue (TOML).")] = _DEFAULT_CATALOGUE,
+    catalogue: Annotated[Path, typer.Option(help="The edit catalogue (TOML).")] = DEFAULT_CATALOGUE,
     equivalents: Annotated[Path | None, typer.Option(help="Mutants judged equivalent, with reasons (default: <catalogue>-equivalents.toml).")] = None,
     tree: Annotated[Path | None, typer.Option(help="The source tree (default: the catalogue's [target] tree, from here).")] = None,
     only: Annotated[list[str] | None, typer.Option(help="Fly only these catalogue mutants (ids).")] = None,
