@@ -70,6 +70,7 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
     from hil.fleet.campaign import campaign_dir
     from hil.fleet.falsify.report import write_outputs
     from hil.fleet.falsify.mutant import load_mutant
+    from hil.fleet.falsify.objective import FAILED
     from hil.fleet.falsify.search import Engine, Flight, fly_reference, run_search
     from hil.fleet.falsify.space import load_space
 
@@ -88,7 +89,7 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
     def progress(f: Flight, budget: int) -> None:
         values = " ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in f.values.items())
         verdict = "FAIL" if f.objective < 0 else "pass"
-        margin = f"{f.objective:+.3g}" if f.objective > -1e5 else "none"
+        margin = f"{f.objective:+.3g}" if f.objective > FAILED else "none"
         console.print(f"[{f.index + 1}/{budget}] gen {f.generation} {verdict} {values}: lowest margin {margin} "
                       f"({f.worst})", highlight=False, markup=False, soft_wrap=True)
 
@@ -104,7 +105,7 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
     console.print(f"{len(search.flights)} flights in {search.wall_s:.0f} s; stopped: {search.stopped}", highlight=False)
     if cx is not None:
         console.print(f"[bold red]counterexample[/]: flight {cx.index}, {escape(cx.worst)} "
-                      f"(scaled margin {cx.objective:+.3g})" if cx.objective > -1e5 else
+                      f"(scaled margin {cx.objective:+.3g})" if cx.objective > FAILED else
                       f"[bold red]counterexample[/]: flight {cx.index}: {escape(cx.worst)}", soft_wrap=True)
         reproduce = (f"hil run {rig} -s {files['counterexample']}" if mutant_dir is None else
                      f"(cd {mutant_dir.resolve()} && hil run {rig.resolve()} -s {Path(files['counterexample']).resolve()})")
@@ -112,7 +113,7 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
         if cx.log:
             console.print(f"  log: {cx.log}", highlight=False, soft_wrap=True)
         if reference is not None:
-            ref = f"{reference.objective:+.3g}" if reference.objective > -1e5 else "none"
+            ref = f"{reference.objective:+.3g}" if reference.objective > FAILED else "none"
             console.print(f"  the unmodified flight code on it: {'passes' if reference.objective >= 0 else 'fails'} "
                           f"(lowest scaled margin {ref}, {reference.worst}): "
                           + ("the search separates the mutant" if reference.objective >= 0 else
