@@ -38,6 +38,10 @@ from hil.faults.framing import (
 
 #: the ports of a board run (hil/flight/board_run.py): the UARTs' devices and the ground station
 BOARD_PORTS: tuple[str, ...] = ("imu", "telemetry", "ground")
+#: the wire faults that also act on a board's SPI lines to the MCP3204 (the adc port: tx is MISO,
+#: rx is MOSI; hil/flight/board_wiring.py): the master clocks every bit, so only a fault that
+#: changes bits has a meaning there, not one that drops, adds, frames or delays bytes
+SPI_LINE_FAULTS: tuple[str, ...] = ("wire.bit_flips", "wire.silence")
 
 
 class WireParams(FaultParams):
@@ -65,9 +69,17 @@ class WireFault(Fault[WP]):
         if params.port not in RIG_PORTS:
             raise Refused("port", f"no port {params.port!r} on this rig (ports: {', '.join(RIG_PORTS)})")
         if rig.flight.board and params.port not in BOARD_PORTS:
-            raise Refused("port", f"on this rig's board ({rig.flight.board}) the {params.port} device is wired at the "
-                                  f"MCU's pins, not through a byte stream: wire faults act on {', '.join(BOARD_PORTS)} "
-                                  "(the UARTs' bytes); the device and sensor faults act on it")
+            if params.port == "adc" and cls.kind in SPI_LINE_FAULTS:
+                pass  # on SPI0's MISO (tx) and MOSI (rx) lines, bit by bit
+            elif params.port == "adc":
+                raise Refused("kind", f"on this rig's board ({rig.flight.board}) the adc is the MCP3204 on SPI0, "
+                                      "whose master clocks every bit: of the wire faults only "
+                                      f"{' and '.join(SPI_LINE_FAULTS)} act on its lines")
+            else:
+                raise Refused("port", f"on this rig's board ({rig.flight.board}) the {params.port} device is wired at "
+                                      f"the MCU's pins, not through a byte stream: wire faults act on "
+                                      f"{', '.join(BOARD_PORTS)} (the UARTs' bytes) and {' and '.join(SPI_LINE_FAULTS)} "
+                                      "on adc (SPI0's lines); the device and sensor faults act on it")
         for d in _directions(params.direction):
             if protocol_of(rig, params.port, d) is Protocol.NONE:
                 raise Refused("direction", f"the flight code sends nothing on {params.port!r}; use direction = 'tx'")

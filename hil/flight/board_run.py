@@ -139,7 +139,7 @@ async def acquire_board(stack: contextlib.AsyncExitStack, run: Any, record_step:
     flight = BoardFlight()
     logger_ref: list[Any] = []
     try:
-        wiring = BoardWiring(image, devices.mcp, _on_line(logger_ref, flight))
+        wiring = BoardWiring(image, devices.mcp, _on_line(logger_ref, flight), devices.wire_filters)
     except FirmwareError as exc:
         raise ConfigError(f"{rig.path}: [flight] firmware: {exc}") from None
     config = flight_config_text(rig, scenario)

@@ -8,7 +8,7 @@ firmware/hal/lpc2148/lpc2148.h):
 |---|---|---|
 | UART0 TXD0/RXD0 (P0.0/P0.1) | the XSENS | a :class:`~hil.flight.board_port.BoardPort` ("imu") |
 | UART1 TXD1/RXD1 (P0.8/P0.9) | the vehicle's XBee | a BoardPort ("telemetry") |
-| SPI0 SCK0/MISO0/MOSI0, /CS on GPIO P0.20 | the MCP3204 (the analog chain behind it) | ``attach_spi_slave``, ``watch_gpio`` |
+| SPI0 SCK0/MISO0/MOSI0, /CS on GPIO P0.20 | the MCP3204 (the analog chain behind it); the adc port's bit-level wire faults act on MISO (tx) and MOSI (rx) | ``attach_spi_slave``, ``watch_gpio`` |
 | CAP1.0 (P0.10) | the PPM receiver's pulse train | ``pin_edge`` at each edge's cycle |
 | PWM2, PWM5, MAT1.2, MAT1.3 | ESC 0-3 | :class:`~hil.flight.board_esc.EscPins` |
 
@@ -24,7 +24,7 @@ at most one chunk late). Everything is a function of cycles, never of the host's
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from emulators.lpc2148 import Lpc2148, SpiTransfer
@@ -36,11 +36,27 @@ from hil.board.semihost import Semihost
 from hil.flight.board_esc import EscPins
 from hil.flight.board_port import BoardPort
 from hil.flight.board_probes import FirmwareProbes
+from hil.flight.devices import WireFilter
 
 PPM_PIN = (0, 10)  #: CAP1.0
 ADC_CS_PIN = (0, 20)
 #: longest stretch the core runs without the device models seeing the UARTs' bytes, ns
 CHUNK_NS = 250_000
+
+
+#: what the MCU reads on a dead SPI line (a cut MISO, like the MCP3204's DOUT in hi-Z) and what the
+#: part reads on a cut MOSI: no start bit, so it never converts
+DEAD_LINE = 0x00
+
+
+def _through(filters: Sequence[WireFilter], direction: str, word: int, t_ns: int) -> int:
+    """One SPI word through the adc port's wire faults (``direction`` "tx": MISO, "rx": MOSI).
+    Only faults that change bits act here (hil/faults/wire.py SPI_LINE_FAULTS): a word they
+    take away is the dead line's."""
+    data = bytes([word])
+    for f in filters:
+        data = f.tx(data, t_ns) if direction == "tx" else f.rx(data, t_ns)
+    return data[0] if data else DEAD_LINE
 
 
 @dataclass
@@ -58,8 +74,12 @@ class BoardWiring:
     """The board at its pins (see the module docstring). ``on_line(text)``: each line of the
     firmware's console (semihosting)."""
 
-    def __init__(self, image: FirmwareImage, mcp: Mcp3204, on_line: Callable[[str], None]) -> None:
+    def __init__(self, image: FirmwareImage, mcp: Mcp3204, on_line: Callable[[str], None],
+                 wire_filters: Mapping[str, Sequence[WireFilter]] | None = None) -> None:
         self.image = image
+        #: the run's wire faults by port (DeviceSet.wire_filters, changed in place as faults come
+        #: and go): the adc's act on SPI0's lines
+        self.wire_filters: Mapping[str, Sequence[WireFilter]] = {} if wire_filters is None else wire_filters
         self.bus = Lpc2148()
         self.core = Core(self.bus, Semihost(on_line=on_line))  # type: ignore[arg-type]  # scb: see mmio.SystemControlView
         self.core.load(image)
@@ -117,9 +137,13 @@ class BoardWiring:
 
     def _spi(self, mosi: int, transfer: SpiTransfer) -> int:
         t_ns = self.sim_ns(transfer.start)
-        miso = self.mcp.exchange(bytes([mosi]), t_ns, transfer.mode,
+        filters = self.wire_filters.get("adc")
+        seen = _through(filters, "rx", mosi, t_ns) if filters else mosi
+        miso = self.mcp.exchange(bytes([seen]), t_ns, transfer.mode,
                                  f_sck_Hz=self.bus.cclk_hz / transfer.sck_period)[0]
-        self.records.spi.append((t_ns, mosi, miso))
+        if filters:
+            miso = _through(filters, "tx", miso, t_ns)
+        self.records.spi.append((t_ns, mosi, miso))  # at the MCU's pins: what it sent and read
         return miso
 
     def _cs(self, level: bool, cycle: int) -> None:

@@ -179,15 +179,21 @@ async def test_the_1_2_ms_defect_fails_the_boards_budget_and_passes_the_hosts(fl
                                                        c.signal.startswith("timing."))
 
 
-async def test_a_port_fault_acts_on_the_uarts_bytes(fly, tmp_path: Path) -> None:
+async def test_port_faults_act_on_the_uarts_bytes_and_the_spi_lines(fly, tmp_path: Path) -> None:
     scenario = tmp_path / "imu-cut.toml"
     scenario.write_text((ROOT / "rigs" / "scenarios" / "arm-idle.toml").read_text().split("[[criteria]]")[0]
-                        + '[[faults]]\nkind = "wire.silence"\nt_s = 1.5\nduration_s = 0.3\nport = "imu"\n')
+                        + '[[faults]]\nkind = "wire.silence"\nt_s = 1.5\nduration_s = 0.3\nport = "imu"\n'
+                        + '[[faults]]\nkind = "wire.bit_flips"\nt_s = 1.05\nduration_s = 0.3\nport = "adc"\n'
+                        + 'bit_error_rate = 0.02\n')
     result = await fly(str(scenario), rig=str(BOARD_RIG), duration_s=2.2)
     assert result.end_reason is EndReason.COMPLETED, explain(result)
     assert result.log_path is not None
     lines = [str(m["message"]) for _, _, m in iter_messages(result.log_path, ["/fc/log"])]
     assert any("event=imu.timeout" in line for line in lines), lines
+    # noise on MISO: the firmware's MCP3204 driver refuses the readings whose null bit or
+    # plausibility it breaks; none before the fault
+    failed = [int(line.split("adc_failed=")[1].split()[0]) for line in lines if "adc_failed=" in line]
+    assert failed and failed[0] == 0 and failed[-1] > 0, lines
     answered = read_topic(result.log_path, "/hil/timing/tick")["t_ns"]  # the samples that reached the pin
     assert not np.any((answered >= 1_500_000_000) & (answered < 1_800_000_000))
     assert np.any(answered >= 1_800_000_000)  # and after it

@@ -79,8 +79,11 @@ def test_a_board_run_refuses_realtime_and_attached_lines(tmp_path: Path, mode: M
 
 
 @pytest.mark.parametrize(("fault", "key"), [
-    ({"kind": "wire.bit_flips", "t_s": 1.0, "port": "adc", "bit_error_rate": 1e-3}, "port"),
+    ({"kind": "wire.bit_flips", "t_s": 1.0, "port": "rc", "bit_error_rate": 1e-3}, "port"),
     ({"kind": "wire.silence", "t_s": 1.0, "port": "esc", "direction": "rx"}, "port"),
+    # SPI's master clocks every bit: nothing to drop, duplicate or delay on the adc's lines
+    ({"kind": "wire.byte_loss", "t_s": 1.0, "port": "adc", "loss_probability": 0.1}, "kind"),
+    ({"kind": "wire.delay", "t_s": 1.0, "port": "adc", "delay_s": 0.01}, "kind"),
     ({"kind": "process.kill", "t_s": 1.0}, "kind"),
     ({"kind": "process.restart", "t_s": 1.0, "duration_s": 0.5}, "kind"),
 ])
@@ -90,12 +93,14 @@ def test_faults_a_board_cannot_take_are_refused_naming_the_key(fault: dict[str, 
     assert f"(#0 ({fault['kind']}) {key}:" in str(err.value).replace("[[faults]] ", "(")
 
 
-def test_port_faults_on_the_uarts_are_accepted() -> None:
+def test_port_faults_on_the_uarts_and_bit_faults_on_the_spi_lines_are_accepted() -> None:
     faults = load_faults([{"kind": "wire.bit_flips", "t_s": 1.0, "port": "imu", "bit_error_rate": 1e-4},
                           {"kind": "imu.silence", "t_s": 1.0, "duration_s": 0.2},
-                          {"kind": "wire.silence", "t_s": 1.0, "port": "telemetry", "direction": "rx"}],
+                          {"kind": "wire.silence", "t_s": 1.0, "port": "telemetry", "direction": "rx"},
+                          {"kind": "wire.bit_flips", "t_s": 1.0, "port": "adc", "bit_error_rate": 1e-3},
+                          {"kind": "wire.silence", "t_s": 1.0, "port": "adc", "direction": "both"}],
                          load_rig(BOARD_RIG), source="s.toml")
-    assert [f.target for f in faults] == ["port imu tx", "imu", "port telemetry rx"]
+    assert [f.target for f in faults] == ["port imu tx", "imu", "port telemetry rx", "port adc tx", "port adc both"]
 
 
 def fake_image(tmp_path: Path, room: int) -> tuple[Core, FirmwareImage]:
