@@ -24,6 +24,8 @@ def falsify(
     out: Annotated[Path, typer.Option(help="Output directory (a timestamped directory is made in it).")] = Path("logs/falsify"),
     mutant: Annotated[str | None, typer.Option(help="Search against this catalogue mutant (its id) instead of the flight code.")] = None,
     catalogue: Annotated[Path, typer.Option(help="The edit catalogue --mutant names (TOML).")] = DEFAULT_CATALOGUE,
+    criterion: Annotated[list[str] | None, typer.Option(
+        help="Aim at the criteria whose names contain this text (repeatable): only their margins and failures count.")] = None,
 ) -> None:
     """Search for the flight that fails: differential evolution over the ranges of the
     scenario's falsify table minimises the flight's lowest criterion margin; flights run in
@@ -55,7 +57,7 @@ def falsify(
         with sigterm_as_ctrl_c():
             code = _run(scenario, rig, flights=flights, wall_s=wall_s, seed=seed,
                         workers=workers or default_workers(), scheduler=scheduler, use_dask=use_dask, out=out,
-                        console=console, mutant=mutant, catalogue=catalogue)
+                        console=console, mutant=mutant, catalogue=catalogue, focus=tuple(criterion or ()))
     except ConfigError as exc:
         console.print(f"[bold red]error:[/] {escape(str(exc))}", soft_wrap=True)
         raise typer.Exit(2) from None
@@ -64,7 +66,7 @@ def falsify(
 
 def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed: int, workers: int,
          scheduler: str | None, use_dask: bool, out: Path, console: Any, mutant: str | None = None,
-         catalogue: Path = DEFAULT_CATALOGUE) -> int:
+         catalogue: Path = DEFAULT_CATALOGUE, focus: tuple[str, ...] = ()) -> int:
     from rich.markup import escape
 
     from hil.fleet.campaign import campaign_dir
@@ -75,6 +77,7 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
     from hil.fleet.falsify.space import load_space
 
     space = load_space(scenario)
+    aimed = _aimed(space, focus)
     target = None if mutant is None else load_mutant(catalogue, mutant)
     name = space.scenario.name if target is None else f"{space.scenario.name}-{target.id}"
     directory = campaign_dir(out, f"falsify-{name}")
@@ -84,6 +87,9 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
     against = "" if target is None else f" against mutant {target.id} ({target.effect})"
     console.print(f"falsify {space.scenario.name} on {rig}{against}: {', '.join(space.keys)}; at most {flights} "
                   f"flights on {where} -> {directory}", highlight=False, soft_wrap=True, markup=False)
+    if focus:
+        console.print(f"aimed at {len(aimed)} of {len(space.scenario.criteria)} criteria: {'; '.join(aimed)}",
+                      highlight=False, soft_wrap=True, markup=False)
     mutant_dir = None if target is None else target.write(directory)
 
     def progress(f: Flight, budget: int) -> None:
@@ -93,13 +99,13 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
         console.print(f"[{f.index + 1}/{budget}] gen {f.generation} {verdict} {values}: lowest margin {margin} "
                       f"({f.worst})", highlight=False, markup=False, soft_wrap=True)
 
-    search = run_search(space, engine, flights=flights, wall_s=wall_s, seed=seed, on_flight=progress)
+    search = run_search(space, engine, flights=flights, wall_s=wall_s, seed=seed, on_flight=progress, focus=focus)
     reference = None
     if target is not None and search.counterexample is not None:
         console.print("the counterexample's flight on the unmodified flight code...", highlight=False)
-        reference = fly_reference(space, engine, search.counterexample)
+        reference = fly_reference(space, engine, search.counterexample, focus)
     files = write_outputs(search, space.keys, directory, f"hil falsify {name} ({rig.name})",
-                          mutant=None if target is None else target.id, reference=reference)
+                          mutant=None if target is None else target.id, reference=reference, focus=aimed)
     (directory / "STOP").unlink(missing_ok=True)
     best, cx = search.best, search.counterexample
     console.print(f"{len(search.flights)} flights in {search.wall_s:.0f} s; stopped: {search.stopped}", highlight=False)
@@ -126,6 +132,19 @@ def _run(scenario: Path, rig: Path, *, flights: int, wall_s: float | None, seed:
     if search.stopped == "interrupted":
         return 130
     return 1 if cx is not None else 0
+
+
+def _aimed(space: Any, focus: tuple[str, ...]) -> list[str]:
+    """The scenario's criteria ``--criterion`` names (all without one); none is an error."""
+    from hil.config import ConfigError
+    from hil.fleet.falsify.objective import focused
+
+    names = [c.name for c in space.scenario.criteria]
+    aimed = [n for n in names if focused(n, focus)]
+    if not aimed:
+        raise ConfigError(f"{space.path}: --criterion {' / '.join(focus)!r}: no criterion of the scenario has it in "
+                          f"its name (criteria: {'; '.join(names)})")
+    return aimed
 
 
 __all__: list[Any] = ["falsify"]

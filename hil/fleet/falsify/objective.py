@@ -12,12 +12,16 @@ all (``min = 1``) or none (``max = 0``), a reported mode, the minimum pulse the 
 commands (``max = 1000`` us, which it sends exactly). Those count only when they fail, else
 they would pin the lowest margin at 0 in every flight and hide the criteria that can move. A flight that did not complete (the flight code crashed, the bench stopped it) or a
 criterion without a value (an empty window) is a failure beyond any margin: :data:`FAILED`.
+
+A search may be aimed at some criteria (``hil falsify --criterion TEXT``, :func:`focused`): then
+only theirs count, both for the lowest margin and for a failure. A mutant usually moves one
+claim, and the lowest margin of all criteria often follows another that it does not touch.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from hil.config.scenario import Criterion
@@ -34,13 +38,24 @@ def scale(c: Criterion) -> float:
     return abs(bound) if bound else 1.0
 
 
-def robustness(result: Mapping[str, Any], criteria: Mapping[str, Criterion]) -> tuple[float, str]:
+def focused(name: str, focus: Sequence[str]) -> bool:
+    """Whether criterion ``name`` counts under ``focus`` (texts any of which it contains,
+    case-insensitive; no focus: every criterion counts)."""
+    return not focus or any(f.lower() in name.lower() for f in focus)
+
+
+def robustness(result: Mapping[str, Any], criteria: Mapping[str, Criterion],
+               focus: Sequence[str] = ()) -> tuple[float, str]:
     """(the flight's lowest scaled margin, the criterion that set it) from a campaign result
-    (hil/fleet/campaign_case.py: ``criteria`` with ``margin``, null when it has none)."""
+    (hil/fleet/campaign_case.py: ``criteria`` with ``margin``, null when it has none), over the
+    criteria ``focus`` names (:func:`focused`). A flight that did not complete fails whatever
+    the focus."""
     if result.get("end_reason") != "completed":
         return FAILED, f"the flight ended: {result.get('end_reason')} ({result.get('message', '')})"
     lowest, name = math.inf, ""
     for r in result.get("criteria", []):
+        if not focused(r["name"], focus):
+            continue
         margin, passed = r.get("margin"), bool(r.get("passed"))
         c = criteria.get(r["name"])
         if margin is None:
@@ -58,4 +73,4 @@ def robustness(result: Mapping[str, Any], criteria: Mapping[str, Criterion]) -> 
     return min(lowest, -FAILED), name  # bounded: the optimiser compares, and inf has no spread
 
 
-__all__ = ["FAILED", "robustness", "scale"]
+__all__ = ["FAILED", "focused", "robustness", "scale"]

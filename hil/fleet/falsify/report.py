@@ -56,9 +56,10 @@ def plot_progress(search: Search, title: str, path: Path) -> Path:
 
 
 def write_outputs(search: Search, keys: list[str], out: Path, title: str, *, mutant: str | None = None,
-                  reference: Flight | None = None) -> dict[str, str]:
+                  reference: Flight | None = None, focus: list[str] | None = None) -> dict[str, str]:
     """Every output file; their paths by role. ``mutant``: the catalogue id searched;
-    ``reference``: the counterexample's point flown on the unmodified flight code."""
+    ``reference``: the counterexample's point flown on the unmodified flight code; ``focus``:
+    the criteria the search was aimed at (None: all)."""
     files = {"table": str(write_table(search, keys, out / "margins.csv"))}
     if search.flights:
         files["progress"] = str(plot_progress(search, title, out / "progress.png"))
@@ -71,7 +72,7 @@ def write_outputs(search: Search, keys: list[str], out: Path, title: str, *, mut
     summary = {
         "flights": len(search.flights), "stopped": search.stopped, "wall_s": search.wall_s,
         "best": None if best is None else _flight(best), "counterexample": None if cx is None else _flight(cx),
-        "files": files, "mutant": mutant,
+        "files": files, "mutant": mutant, "criteria": focus,
         "reference": None if reference is None else {**_flight(reference), "separates": reference.objective >= 0},
     }
     (out / "search.json").write_text(json.dumps(summary, indent=1))

@@ -117,9 +117,10 @@ class Engine:
 
 
 def run_search(space: Space, engine: Engine, *, flights: int, wall_s: float | None, seed: int,
-               on_flight: Callable[[Flight, int], None] = lambda f, n: None) -> Search:
+               on_flight: Callable[[Flight, int], None] = lambda f, n: None, focus: tuple[str, ...] = ()) -> Search:
     """Search ``space`` for a flight that fails; at most ``flights`` flights (whole
-    generations) and ``wall_s`` wall seconds. ``on_flight(flight, budget)``: progress."""
+    generations) and ``wall_s`` wall seconds. ``on_flight(flight, budget)``: progress.
+    ``focus``: only the criteria it names count (objective.focused)."""
     from scipy.optimize import differential_evolution
 
     criteria: dict[str, Criterion] = {c.name: c for c in space.scenario.criteria}
@@ -151,7 +152,7 @@ def run_search(space: Space, engine: Engine, *, flights: int, wall_s: float | No
         def handle(result: dict[str, Any]) -> None:
             result = land_result(result, engine.out)
             index, values, path = by_id[result["case_id"]]
-            objective, worst = robustness(result, criteria)
+            objective, worst = robustness(result, criteria, focus)
             flight = Flight(index, generation, values, objective, worst, str(result.get("end_reason")), path,
                             result.get("log"), float(result.get("wall_s") or 0.0))
             landed[result["case_id"]] = flight
@@ -183,16 +184,16 @@ def run_search(space: Space, engine: Engine, *, flights: int, wall_s: float | No
     return search
 
 
-def fly_reference(space: Space, engine: Engine, flight: Flight) -> Flight | None:
+def fly_reference(space: Space, engine: Engine, flight: Flight, focus: tuple[str, ...] = ()) -> Flight | None:
     """``flight``'s point flown again without the engine's extra files: with ``--mutant``, the
     unmodified flight code on the mutant's counterexample. It separates the two when this
-    flight passes. None when interrupted."""
+    flight passes (the criteria ``focus`` names). None when interrupted."""
     plain = dataclasses.replace(engine, extra_files={})
     landed: list[dict[str, Any]] = []
     if plain.fly([plain.case(space, "reference", flight.values, flight.scenario_file)], landed.append) or not landed:
         return None
     result = land_result(landed[0], engine.out)
-    objective, worst = robustness(result, {c.name: c for c in space.scenario.criteria})
+    objective, worst = robustness(result, {c.name: c for c in space.scenario.criteria}, focus)
     return Flight(flight.index, flight.generation, flight.values, objective, worst, str(result.get("end_reason")),
                   flight.scenario_file, result.get("log"), float(result.get("wall_s") or 0.0))
 

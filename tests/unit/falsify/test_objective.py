@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from hil.config.scenario import Criterion
-from hil.fleet.falsify.objective import FAILED, robustness, scale
+from hil.fleet.falsify.objective import FAILED, focused, robustness, scale
 
 HEIGHT = Criterion(name="held", signal="truth.h_m", metric="mean", min=1.8, max=2.2)
 ROLL = Criterion(name="roll", signal="truth.roll_deg", metric="max_abs", max=3.0)
@@ -41,3 +41,13 @@ def test_scales_and_failures_without_a_margin() -> None:
     crashed = robustness(result(end="flight exited"), CRITERIA)
     assert crashed[0] == FAILED and "flight exited" in crashed[1]
     assert robustness(result(("held", -0.0, False)), CRITERIA)[0] < 0  # failed at exactly the bound
+
+
+def test_a_focus_counts_only_the_criteria_it_names() -> None:
+    res = result(("held", 0.02, True), ("roll", -0.5, False), ("disarmed", 0.0, True))
+    assert robustness(res, CRITERIA)[0] < 0  # unaimed: the roll's failure is the flight's
+    value, name = robustness(res, CRITERIA, focus=("HELD",))  # aimed, case-insensitive
+    assert name == "held" and math.isclose(value, 0.1)
+    assert robustness(res, CRITERIA, focus=("held", "roll"))[1] == "roll"
+    assert focused("altitude held", ("held",)) and not focused("roll", ("held",)) and focused("roll", ())
+    assert robustness(result(end="flight exited"), CRITERIA, focus=("held",))[0] == FAILED  # a crash fails any aim
