@@ -17,7 +17,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from hil.config import ConfigError
 
-Layer = Literal["drivers", "estimation", "control", "modes", "loop", "telemetry"]
+#: "hal": a hardware layer of its own (the firmware's hal/: the LPC2148's peripherals)
+Layer = Literal["drivers", "estimation", "control", "modes", "loop", "telemetry", "hal"]
 
 
 class _Strict(BaseModel):
