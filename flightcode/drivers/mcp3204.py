@@ -1,6 +1,8 @@
 """MCP3204 12-bit ADC (Microchip DS21298E) read through an SPI bridge, four channels a tick.
 
-Framing: the datasheet's 3-byte transaction (Fig. 6-1, SPI mode 0,0; docs/protocols.md 2):
+Framing: the datasheet's 3-byte transaction (Fig. 6-1, SPI mode 0,0; docs/protocols.md 2),
+clocked on for two more bytes, in which the part sends the code again LSB first (DS21298E
+section 5.0: B1..B11 after B0, then zeros):
 
 =====  ============================  =================================
 byte   MOSI                          MISO
@@ -8,14 +10,20 @@ byte   MOSI                          MISO
 0      ``0000 01 S D2`` (S=1 single)  ignored (hi-Z)
 1      ``D1 D0 xxxxxx``               ``? ? ? 0 B11 B10 B9 B8`` (bit 4 = null bit)
 2      ``xxxx xxxx``                  ``B7 .. B0``
+3      ``xxxx xxxx``                  ``B1 .. B8`` (LSB first)
+4      ``xxxx xxxx``                  ``B9 B10 B11 0 0 0 0 0``
 =====  ============================  =================================
 
-so CH0..CH3 single-ended are ``06 00 00``, ``06 40 00``, ``06 80 00``, ``06 C0 00``.
+so CH0..CH3 single-ended are ``06 00 00 00 00``, ``06 40 00 00 00``, ``06 80 00 00 00``,
+``06 C0 00 00 00``. The repeat is the reading's only check of its own: SPI has no checksum,
+and a bit flipped on MISO (noise on the line) gives a plausible wrong code. B1..B11 must read
+the same both ways; B0, sent once, is unchecked (one LSB).
 
 :class:`Mcp3204Reader` sends all channels in one pipelined bridge write per sample. A sample
-whose reply is late, malformed or has a null bit set has no reading (None); the bridge
-collects late replies and re-enters SPI mode itself (:class:`BusPirateSpi`), so a bad
-exchange costs the samples it takes to put right, never a misread code.
+whose reply is late, malformed, has a null bit set or a repeat that disagrees has no reading
+(None); the bridge collects late replies and re-enters SPI mode itself (:class:`BusPirateSpi`;
+a null bit is a framing error and re-applies the setup, a repeat that disagrees is a bit error
+and does not), so a bad exchange costs the samples it takes to put right, never a misread code.
 """
 
 from __future__ import annotations
@@ -32,18 +40,33 @@ SINGLE_ENDED = 0x02
 NULL_BIT = 0x10
 
 
+#: bytes of one conversion: the code MSB first, then its repeat LSB first
+FRAME_BYTES = 5
+
+
 def request(channel: int, single_ended: bool = True) -> bytes:
-    """The 3 MOSI bytes converting ``channel`` (0..3)."""
+    """The 5 MOSI bytes converting ``channel`` (0..3)."""
     if not 0 <= channel <= 3:
         raise ValueError(f"MCP3204 channel {channel} (0..3)")
-    return bytes((START_BIT | (SINGLE_ENDED if single_ended else 0), (channel & 0x3) << 6, 0x00))
+    return bytes((START_BIT | (SINGLE_ENDED if single_ended else 0), (channel & 0x3) << 6, 0x00, 0x00, 0x00))
 
 
 def decode(miso: bytes) -> int | None:
-    """The 12-bit code from the 3 MISO bytes; None if the null bit is not 0 or length wrong."""
-    if len(miso) != 3 or miso[1] & NULL_BIT:
+    """The 12-bit code from the MISO bytes (MSB first: bytes 1-2); None if the null bit is not
+    0 or the length is wrong."""
+    if len(miso) != FRAME_BYTES or miso[1] & NULL_BIT:
         return None
     return ((miso[1] & 0x0F) << 8) | miso[2]
+
+
+def repeat_agrees(miso: bytes, code: int) -> bool:
+    """Whether the LSB-first repeat (bytes 3-4: B1..B11) reads ``code``'s bits B1..B11."""
+    repeat = ((miso[3] << 8) | miso[4]) >> 5  # B1 first, 11 bits
+    return repeat == _REVERSED_11[code >> 1]
+
+
+#: the 11-bit reversal of every B11..B1: B1..B11 LSB first is the reversal of ``code >> 1``
+_REVERSED_11 = tuple(int(f"{v:011b}"[::-1], 2) for v in range(1 << 11))
 
 
 class Mcp3204Reader:
@@ -63,7 +86,8 @@ class Mcp3204Reader:
         self._wire = encode_transfers(self._frames)
         self._lengths = tuple(len(f) for f in self._frames)
         #: reads (good samples), failed_reads (a transfer went out and gave no codes),
-        #: null_bit_errors, no_transfer (the bridge was busy: late reply owed or re-entering).
+        #: null_bit_errors, repeat_errors (the LSB-first repeat disagreed: a bit error),
+        #: no_transfer (the bridge was busy: late reply owed or re-entering).
         self.counters: Counter[str] = Counter()
 
     def read_codes(self, t_ns: int) -> tuple[int, ...] | None:
@@ -81,6 +105,10 @@ class Mcp3204Reader:
                 self.counters["null_bit_errors"] += 1
                 self.counters["failed_reads"] += 1
                 bridge.lose_sync("null_bit")  # wrong SPI mode or framing: re-apply the setup
+                return None
+            if not repeat_agrees(miso, code):
+                self.counters["repeat_errors"] += 1  # a bit error on the line, not the framing:
+                self.counters["failed_reads"] += 1  # the bridge stays in sync
                 return None
             codes.append(code)
         self.counters["reads"] += 1

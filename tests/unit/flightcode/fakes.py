@@ -244,14 +244,17 @@ class FakeBusPirate:
                     self._reply(b"\x00")
 
     def _mcp3204(self, mosi: bytes) -> bytes:
-        """Datasheet Fig. 6-1 framing only (what the flight code sends): 06|D2, D1D0<<6, x."""
+        """Datasheet Fig. 6-1 framing only (what the flight code sends): 06|D2, D1D0<<6, x, and
+        two more bytes for the LSB-first repeat (B1..B11, then zeros)."""
         assert self.cs_low, "transfer with CS high"
-        if len(mosi) != 3 or mosi[0] & 0xFC != 0x04:
+        if len(mosi) != 5 or mosi[0] & 0xFC != 0x04:
             return b"\xff" * len(mosi)
         channel = ((mosi[0] & 1) << 2) | (mosi[1] >> 6)
         code = self.codes(channel & 3)
         self.transactions += 1
-        return bytes((0xFF, (code >> 8) & 0x0F, code & 0xFF))  # byte 0 and bits 7..5 of byte 1 hi-Z
+        repeat = int(f"{code >> 1:011b}"[::-1], 2) << 5  # B1 first, 16 bits
+        # byte 0 and bits 7..5 of byte 1 hi-Z
+        return bytes((0xFF, (code >> 8) & 0x0F, code & 0xFF, repeat >> 8, repeat & 0xFF))
 
 
 # -- RC ------------------------------------------------------------------------------------------
