@@ -1,9 +1,10 @@
 """Plausibility of the ADC's converted readings, before the altitude filter sees them.
 
-The Bus Pirate link checks its acks and the MCP3204's null bits, but a bit error in a data
-byte with good acks around it is a valid-looking code (``wire.bit_flips`` on the bench: about
-one reply in four at a bit error rate of 1e-2). Such a code is caught here from what the
-sensors can physically produce, and the reading is treated as missing (counted):
+The Bus Pirate link checks its acks, and the MCP3204 driver its null bits and each code against
+its LSB-first repeat, which catches one bit flipped on the line. A valid-looking code can still
+come: a flip of B0 (sent once), the same bit flipped in both copies, or a wrong value the sensor
+or its analog chain produced (a rail, a stuck output, a step). Such a code is caught here from
+what the sensors can physically produce, and the reading is treated as missing (counted):
 
 * barometer: the pressure must lie in the MPX5100AP's rated range (15-115 kPa; codes at the
   ADC's rails are already refused by :class:`~flightcode.drivers.analog.AnalogChain`), and

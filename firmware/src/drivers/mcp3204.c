@@ -6,33 +6,46 @@
 #define START_BIT 0x04u
 #define SINGLE_ENDED 0x02u
 
-void mcp3204_request(uint8_t channel, uint8_t out[3])
+void mcp3204_request(uint8_t channel, uint8_t out[MCP3204_FRAME])
 {
     out[0] = START_BIT | SINGLE_ENDED;
     out[1] = (uint8_t)((channel & 0x3u) << 6);
     out[2] = 0x00;
+    out[3] = 0x00;
+    out[4] = 0x00;
 }
 
-int mcp3204_decode(const uint8_t miso[3])
+int mcp3204_decode(const uint8_t miso[MCP3204_FRAME])
 {
     if (miso[1] & MCP3204_NULL_BIT)
         return -1;
     return ((miso[1] & 0x0F) << 8) | miso[2];
 }
 
+bool mcp3204_repeat_agrees(const uint8_t miso[MCP3204_FRAME], int code)
+{
+    uint32_t repeat = (((uint32_t)miso[3] << 8) | miso[4]) >> 5; /* B1 first, 11 bits */
+    uint32_t msb_first = (uint32_t)code >> 1, reversed = 0;
+    for (int i = 0; i < 11; i++) {
+        reversed = (reversed << 1) | (msb_first & 1u);
+        msb_first >>= 1;
+    }
+    return repeat == reversed;
+}
+
 void mcp3204_init(mcp3204_t *m, const uint8_t channels[MCP3204_CHANNELS])
 {
     for (int i = 0; i < MCP3204_CHANNELS; i++) {
         m->channels[i] = channels[i];
-        mcp3204_request(channels[i], m->mosi + 3 * i);
-        m->lengths[i] = 3;
+        mcp3204_request(channels[i], m->mosi + MCP3204_FRAME * i);
+        m->lengths[i] = MCP3204_FRAME;
     }
-    m->counters = (mcp3204_counters_t){0, 0, 0, 0};
+    m->counters = (mcp3204_counters_t){0, 0, 0, 0, 0};
 }
 
 int mcp3204_read(mcp3204_t *m, uint64_t t_ns, uint16_t codes[MCP3204_CHANNELS])
 {
-    uint8_t miso[3 * MCP3204_CHANNELS];
+    uint8_t miso[MCP3204_FRAME * MCP3204_CHANNELS];
     int r = hal_spi_exchange(m->mosi, miso, m->lengths, MCP3204_CHANNELS, t_ns);
     if (r < 0)
         return r;
@@ -44,11 +57,17 @@ int mcp3204_read(mcp3204_t *m, uint64_t t_ns, uint16_t codes[MCP3204_CHANNELS])
         return 0;
     }
     for (int i = 0; i < MCP3204_CHANNELS; i++) {
-        int code = mcp3204_decode(miso + 3 * i);
+        const uint8_t *reply = miso + MCP3204_FRAME * i;
+        int code = mcp3204_decode(reply);
         if (code < 0) {
             m->counters.null_bit_errors++;
             m->counters.failed_reads++;
             hal_spi_resync(); /* wrong SPI mode or framing: re-apply the setup */
+            return 0;
+        }
+        if (!mcp3204_repeat_agrees(reply, code)) {
+            m->counters.repeat_errors++; /* a bit error on the line, not the framing */
+            m->counters.failed_reads++;
             return 0;
         }
         codes[i] = (uint16_t)code;

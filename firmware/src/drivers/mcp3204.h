@@ -1,10 +1,14 @@
 /*
  * MCP3204 12-bit ADC (Microchip DS21298E), four single-ended channels a sample, through the
- * HAL's SPI exchange. The datasheet's 3-byte transaction (Fig. 6-1, SPI mode 0,0):
- *   MOSI 0000 01 S D2 | D1 D0 xxxxxx | xxxxxxxx     (S = 1 single-ended)
- *   MISO (hi-Z)       | ? ? ? 0 B11..B8 | B7..B0    (bit 4 of byte 1: the null bit)
- * so CH0..CH3 are 06 00 00, 06 40 00, 06 80 00, 06 C0 00. A reply with the null bit set
- * is no reading: the SPI path is set up again (hal_spi_resync), never a misread code.
+ * HAL's SPI exchange. The datasheet's 3-byte transaction (Fig. 6-1, SPI mode 0,0), clocked on
+ * for two more bytes in which the part repeats B1..B11 LSB first (section 5.0):
+ *   MOSI 0000 01 S D2 | D1 D0 xxxxxx | xxxxxxxx | xxxxxxxx | xxxxxxxx   (S = 1 single-ended)
+ *   MISO (hi-Z)       | ? ? ? 0 B11..B8 | B7..B0 | B1..B8 | B9 B10 B11 00000
+ * (bit 4 of byte 1: the null bit), so CH0..CH3 are 06 00 00 00 00, 06 40 00 00 00, ...
+ * A reply with the null bit set is no reading: the SPI path is set up again
+ * (hal_spi_resync). A code whose repeat disagrees is no reading either (a bit flipped on the
+ * line: SPI has no checksum), without a resync: the framing is fine. Never a misread code
+ * (B0, sent once, is unchecked: one LSB).
  */
 #ifndef FW_MCP3204_H
 #define FW_MCP3204_H
@@ -14,19 +18,22 @@
 
 #define MCP3204_CHANNELS 4
 #define MCP3204_NULL_BIT 0x10u
+#define MCP3204_FRAME 5 /* bytes of one conversion: the code MSB first, then its repeat */
 
-/* The 3 MOSI bytes converting channel 0..3 (single-ended). */
-void mcp3204_request(uint8_t channel, uint8_t out[3]);
-/* The 12-bit code of a reply, or -1 if the null bit is not 0. */
-int mcp3204_decode(const uint8_t miso[3]);
+/* The MCP3204_FRAME MOSI bytes converting channel 0..3 (single-ended). */
+void mcp3204_request(uint8_t channel, uint8_t out[MCP3204_FRAME]);
+/* The 12-bit code of a reply (MSB first: bytes 1-2), or -1 if the null bit is not 0. */
+int mcp3204_decode(const uint8_t miso[MCP3204_FRAME]);
+/* Whether the reply's LSB-first repeat (bytes 3-4) reads code's bits B1..B11. */
+bool mcp3204_repeat_agrees(const uint8_t miso[MCP3204_FRAME], int code);
 
 typedef struct {
-    uint32_t reads, failed_reads, null_bit_errors, no_transfer;
+    uint32_t reads, failed_reads, null_bit_errors, repeat_errors, no_transfer;
 } mcp3204_counters_t;
 
 typedef struct {
     uint8_t channels[MCP3204_CHANNELS];
-    uint8_t mosi[3 * MCP3204_CHANNELS];
+    uint8_t mosi[MCP3204_FRAME * MCP3204_CHANNELS];
     uint8_t lengths[MCP3204_CHANNELS];
     mcp3204_counters_t counters;
 } mcp3204_t;

@@ -2,9 +2,10 @@
  * plausibility.h - is a converted ADC reading one the sensors can produce?
  *
  * The C twin of flightcode/estimation/plausibility.py (docs/flightcode.md, loop step 2). The
- * Bus Pirate link checks its acks and the MCP3204's null bits, but a bit error in a data byte
- * between good acks is a valid-looking code. A reading that fails here is treated as missing
- * by the altitude filter (and counted):
+ * Bus Pirate link checks its acks, and the MCP3204 driver its null bits and each code against
+ * its LSB-first repeat (one bit flipped on the line); a flip of B0, the same bit flipped in both
+ * copies, or a wrong value from the sensor or its analog chain still gives a valid-looking
+ * code. A reading that fails here is treated as missing by the altitude filter (and counted):
  *
  *   barometer      within the MPX5100AP's 15-115 kPa; not a flat line (standard deviation over
  *                  the last baro_flat_readings below baro_flat_std_Pa: a live sensor moves by
