@@ -1,23 +1,24 @@
 """MCP3204 12-bit ADC (Microchip DS21298E) read through an SPI bridge, four channels a tick.
 
-Framing: the datasheet's 3-byte transaction (Fig. 6-1, SPI mode 0,0; docs/protocols.md 2),
-clocked on for two more bytes, in which the part sends the code again LSB first (DS21298E
-section 5.0: B1..B11 after B0, then zeros):
+Framing: four bytes a conversion (SPI mode 0,0; docs/protocols.md 2), with the start bit as
+early as the second clock (as Linux's ``mcp320x`` aligns it), so that 32 clocks carry the code
+MSB first and, clocked on after B0, the part's repeat of B1..B11 LSB first (DS21298E section
+5.0):
 
-=====  ============================  =================================
-byte   MOSI                          MISO
-=====  ============================  =================================
-0      ``0000 01 S D2`` (S=1 single)  ignored (hi-Z)
-1      ``D1 D0 xxxxxx``               ``? ? ? 0 B11 B10 B9 B8`` (bit 4 = null bit)
-2      ``xxxx xxxx``                  ``B7 .. B0``
-3      ``xxxx xxxx``                  ``B1 .. B8`` (LSB first)
-4      ``xxxx xxxx``                  ``B9 B10 B11 0 0 0 0 0``
-=====  ============================  =================================
+=====  ==============================  ===========================================
+byte   MOSI                            MISO
+=====  ==============================  ===========================================
+0      ``0 1 S D2 D1 D0 0 0`` (S=1)    ``? ? ? ? ? ? ? 0`` (hi-Z, then the null bit)
+1      ``0000 0000``                   ``B11 .. B4``
+2      ``0000 0000``                   ``B3 B2 B1 B0 B1 B2 B3 B4``
+3      ``0000 0000``                   ``B5 .. B11 0``
+=====  ==============================  ===========================================
 
-so CH0..CH3 single-ended are ``06 00 00 00 00``, ``06 40 00 00 00``, ``06 80 00 00 00``,
-``06 C0 00 00 00``. The repeat is the reading's only check of its own: SPI has no checksum,
-and a bit flipped on MISO (noise on the line) gives a plausible wrong code. B1..B11 must read
-the same both ways; B0, sent once, is unchecked (one LSB).
+so CH0..CH3 single-ended are ``60 00 00 00``, ``64 00 00 00``, ``68 00 00 00``,
+``6C 00 00 00``. The repeat is the reading's only check of its own: SPI has no checksum, and a
+bit flipped on MISO (noise on the line) gives a plausible wrong code. B1..B11 must read the
+same both ways; B0, sent once, is unchecked (one LSB). (Datasheet Fig. 6-1's 3-byte framing,
+with the start bit at the sixth clock, would need five bytes for the repeat.)
 
 :class:`Mcp3204Reader` sends all channels in one pipelined bridge write per sample. A sample
 whose reply is late, malformed, has a null bit set or a repeat that disagrees has no reading
@@ -35,33 +36,34 @@ from flightcode.drivers.buspirate_protocol import encode_transfers
 from flightcode.drivers.buspirate_spi import BusPirateSpi
 
 RESOLUTION_CODES = 4096
-START_BIT = 0x04
-SINGLE_ENDED = 0x02
-NULL_BIT = 0x10
+START_BIT = 0x40
+SINGLE_ENDED = 0x20
+NULL_BIT = 0x01  #: in byte 0
 
 
 #: bytes of one conversion: the code MSB first, then its repeat LSB first
-FRAME_BYTES = 5
+FRAME_BYTES = 4
 
 
 def request(channel: int, single_ended: bool = True) -> bytes:
-    """The 5 MOSI bytes converting ``channel`` (0..3)."""
+    """The 4 MOSI bytes converting ``channel`` (0..3)."""
     if not 0 <= channel <= 3:
         raise ValueError(f"MCP3204 channel {channel} (0..3)")
-    return bytes((START_BIT | (SINGLE_ENDED if single_ended else 0), (channel & 0x3) << 6, 0x00, 0x00, 0x00))
+    return bytes((START_BIT | (SINGLE_ENDED if single_ended else 0) | (channel & 0x3) << 2, 0x00, 0x00, 0x00))
 
 
 def decode(miso: bytes) -> int | None:
-    """The 12-bit code from the MISO bytes (MSB first: bytes 1-2); None if the null bit is not
-    0 or the length is wrong."""
-    if len(miso) != FRAME_BYTES or miso[1] & NULL_BIT:
+    """The 12-bit code from the MISO bytes (MSB first: byte 1 and the top of byte 2); None if
+    the null bit is not 0 or the length is wrong."""
+    if len(miso) != FRAME_BYTES or miso[0] & NULL_BIT:
         return None
-    return ((miso[1] & 0x0F) << 8) | miso[2]
+    return (miso[1] << 4) | (miso[2] >> 4)
 
 
 def repeat_agrees(miso: bytes, code: int) -> bool:
-    """Whether the LSB-first repeat (bytes 3-4: B1..B11) reads ``code``'s bits B1..B11."""
-    repeat = ((miso[3] << 8) | miso[4]) >> 5  # B1 first, 11 bits
+    """Whether the LSB-first repeat (B1..B11: the low half of byte 2, byte 3 but its last bit)
+    reads ``code``'s bits B1..B11."""
+    repeat = ((miso[2] & 0x0F) << 7) | (miso[3] >> 1)  # B1 first, 11 bits
     return repeat == _REVERSED_11[code >> 1]
 
 

@@ -3,28 +3,27 @@
 
 #include "hal.h"
 
-#define START_BIT 0x04u
-#define SINGLE_ENDED 0x02u
+#define START_BIT 0x40u
+#define SINGLE_ENDED 0x20u
 
 void mcp3204_request(uint8_t channel, uint8_t out[MCP3204_FRAME])
 {
-    out[0] = START_BIT | SINGLE_ENDED;
-    out[1] = (uint8_t)((channel & 0x3u) << 6);
+    out[0] = (uint8_t)(START_BIT | SINGLE_ENDED | ((channel & 0x3u) << 2));
+    out[1] = 0x00;
     out[2] = 0x00;
     out[3] = 0x00;
-    out[4] = 0x00;
 }
 
 int mcp3204_decode(const uint8_t miso[MCP3204_FRAME])
 {
-    if (miso[1] & MCP3204_NULL_BIT)
+    if (miso[0] & MCP3204_NULL_BIT)
         return -1;
-    return ((miso[1] & 0x0F) << 8) | miso[2];
+    return (miso[1] << 4) | (miso[2] >> 4);
 }
 
 bool mcp3204_repeat_agrees(const uint8_t miso[MCP3204_FRAME], int code)
 {
-    uint32_t repeat = (((uint32_t)miso[3] << 8) | miso[4]) >> 5; /* B1 first, 11 bits */
+    uint32_t repeat = ((uint32_t)(miso[2] & 0x0Fu) << 7) | ((uint32_t)miso[3] >> 1); /* B1 first, 11 bits */
     uint32_t msb_first = (uint32_t)code >> 1, reversed = 0;
     for (int i = 0; i < 11; i++) {
         reversed = (reversed << 1) | (msb_first & 1u);

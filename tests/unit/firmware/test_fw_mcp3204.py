@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "firmware"))
 import hostlib  # noqa: E402
 
-FRAME = 5
+FRAME = 4
 CHANNELS = 4
 
 
@@ -47,9 +47,9 @@ def lib(tmp_path_factory: pytest.TempPathFactory) -> C.CDLL:
 
 
 def frame(code: int) -> bytes:
-    """The MISO bytes the MCP3204 sends for ``code``: 11 hi-Z bits, the null bit, B11..B0,
-    B1..B11, zeros (as the bench's model sends them, tests/unit/flightcode)."""
-    bits = [0] * 12 + [(code >> (11 - i)) & 1 for i in range(12)] + [(code >> i) & 1 for i in range(1, 12)]
+    """The MISO bytes the MCP3204 sends for ``code``: 7 hi-Z bits, the null bit, B11..B0,
+    B1..B11, a zero (as the bench's model sends them, tests/unit/flightcode)."""
+    bits = [0] * 8 + [(code >> (11 - i)) & 1 for i in range(12)] + [(code >> i) & 1 for i in range(1, 12)]
     bits += [0] * (8 * FRAME - len(bits))
     return bytes(int("".join(map(str, bits[8 * k : 8 * k + 8])), 2) for k in range(FRAME))
 
@@ -86,15 +86,15 @@ def test_a_repeat_that_disagrees_is_no_reading_and_no_resync(lib: C.CDLL) -> Non
     good = [frame(c) for c in (1830, 2420, 2048, 1392)]
     m, codes = _reader(lib, good)
     assert codes == [1830, 2420, 2048, 1392] and m.counters.reads == 1
-    sent = bytes((C.c_uint8 * 20).in_dll(lib, "spi_stub_sent"))
-    assert sent == b"".join(py.request(ch) for ch in range(4))  # 5 bytes a channel
+    sent = bytes((C.c_uint8 * 16).in_dll(lib, "spi_stub_sent"))
+    assert sent == b"".join(py.request(ch) for ch in range(4))  # 4 bytes a channel
     flipped = bytearray(good[0])
-    flipped[1] ^= 0x01  # B8 flipped on MISO: 1830 reads 1574, a plausible code
+    flipped[1] ^= 0x10  # B8 flipped on MISO: 1830 reads 1574, a plausible code
     before = resyncs.value
     m, codes = _reader(lib, [bytes(flipped), *good[1:]])
     assert codes is None and m.counters.repeat_errors == 1 and m.counters.failed_reads == 1
     assert resyncs.value == before  # a bit error, not the framing
     null = bytearray(good[2])
-    null[1] |= 0x10
+    null[0] |= 0x01
     m, codes = _reader(lib, [good[0], good[1], bytes(null), good[3]])
     assert codes is None and m.counters.null_bit_errors == 1 and resyncs.value == before + 1

@@ -244,17 +244,18 @@ class FakeBusPirate:
                     self._reply(b"\x00")
 
     def _mcp3204(self, mosi: bytes) -> bytes:
-        """Datasheet Fig. 6-1 framing only (what the flight code sends): 06|D2, D1D0<<6, x, and
-        two more bytes for the LSB-first repeat (B1..B11, then zeros)."""
+        """The flight code's framing only: ``0 1 S D2 D1 D0 0 0`` and three bytes, in which the
+        part sends the null bit, B11..B0 and B1..B11 again LSB first."""
         assert self.cs_low, "transfer with CS high"
-        if len(mosi) != 5 or mosi[0] & 0xFC != 0x04:
+        if len(mosi) != 4 or mosi[0] & 0xC3 != 0x40:
             return b"\xff" * len(mosi)
-        channel = ((mosi[0] & 1) << 2) | (mosi[1] >> 6)
+        channel = (mosi[0] >> 2) & 7
         code = self.codes(channel & 3)
         self.transactions += 1
-        repeat = int(f"{code >> 1:011b}"[::-1], 2) << 5  # B1 first, 16 bits
-        # byte 0 and bits 7..5 of byte 1 hi-Z
-        return bytes((0xFF, (code >> 8) & 0x0F, code & 0xFF, repeat >> 8, repeat & 0xFF))
+        repeat = int(f"{code >> 1:011b}"[::-1], 2)  # B1 first
+        word = (code << 12) | (repeat << 1)  # B11..B0, B1..B11, a zero: 24 bits
+        # byte 0's hi-Z bits read 1 here (a pull-up), its last bit is the null bit
+        return bytes((0xFE, word >> 16, (word >> 8) & 0xFF, word & 0xFF))
 
 
 # -- RC ------------------------------------------------------------------------------------------

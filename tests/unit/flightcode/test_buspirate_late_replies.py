@@ -28,7 +28,7 @@ from tests.unit.flightcode.emulated_buspirate import (
 READ_TIMEOUT_S = 0.02
 TICK_WALL_S = 0.0005  # lockstep on the bench: a sample every ~0.5 ms of wall time
 SETUP = [bytes(20), b"\x00", b"\x01", b"\x8a", b"\x63", b"\x49", b"\x03"]
-WIRE = bytes.fromhex("02 14 06 00 00 00 00 03 02 14 06 40 00 00 00 03 02 14 06 80 00 00 00 03 02 14 06 c0 00 00 00 03")
+WIRE = bytes.fromhex("02 13 60 00 00 00 03 02 13 64 00 00 00 03 02 13 68 00 00 00 03 02 13 6c 00 00 00 03")
 
 
 def make(delivery: Delivery = prompt, *, attempts: int = 3, mode: Mode | None = None,
@@ -118,7 +118,7 @@ def test_dead_bridge_fails_boot_naming_the_adc_after_bounded_waits() -> None:
 # -- late, fragmented and garbled replies in flight ---------------------------------------------------
 def late_every(n: int, delay_s: float) -> Delivery:
     def delivery(i: int, data: bytes, now: float) -> list[tuple[float, bytes]]:
-        return [(now + (delay_s if len(data) == 32 and i % n == 0 else 50e-6), data)]
+        return [(now + (delay_s if len(data) == 28 and i % n == 0 else 50e-6), data)]
 
     return delivery
 
@@ -151,7 +151,7 @@ def test_reply_in_single_byte_fragments_reads_every_sample() -> None:
 
 def test_reply_straddling_the_timeout_is_completed_next_sample() -> None:
     def straddle(i: int, data: bytes, now: float) -> list[tuple[float, bytes]]:
-        if len(data) == 32 and i == 10:
+        if len(data) == 28 and i == 10:
             return [(now + 1e-4, data[:9]), (now + 0.0202, data[9:])]  # just after the timeout
         return prompt(i, data, now)
 
@@ -173,7 +173,7 @@ def test_garbage_between_samples_is_flushed_before_the_write() -> None:
 
 def test_garbage_inside_a_reply_resyncs_without_stalling_and_recovers() -> None:
     def noisy(i: int, data: bytes, now: float) -> list[tuple[float, bytes]]:
-        if len(data) == 32 and i == 12:
+        if len(data) == 28 and i == 12:
             return [(now + 1e-4, data[:7] + b"\xee" + data[7:])]
         return prompt(i, data, now)
 

@@ -30,29 +30,29 @@ def _bridge(attempts: int = 2) -> tuple[BusPirateSpi, FakeBusPirate, FakeSerial,
 
 
 def test_mcp3204_requests_match_the_datasheet_framing() -> None:
-    # docs/protocols.md 2: single-ended CH0..CH3 = 06 00 00, 06 40 00, 06 80 00, 06 C0 00, clocked on
-    # two more bytes for the LSB-first repeat
-    assert [mcp3204.request(ch).hex(" ") for ch in range(4)] == ["06 00 00 00 00", "06 40 00 00 00", "06 80 00 00 00",
-                                                                "06 c0 00 00 00"]
-    assert mcp3204.request(1, single_ended=False) == bytes.fromhex("04 40 00 00 00")
+    # the start bit at the second clock (Linux mcp320x's alignment): 0 1 S D2 D1 D0 0 0, then 24
+    # clocks for the code and its LSB-first repeat
+    assert [mcp3204.request(ch).hex(" ") for ch in range(4)] == ["60 00 00 00", "64 00 00 00", "68 00 00 00",
+                                                                "6c 00 00 00"]
+    assert mcp3204.request(1, single_ended=False) == bytes.fromhex("44 00 00 00")
 
 
 def test_mcp3204_decode_and_null_bit() -> None:
-    assert mcp3204.decode(bytes.fromhex("FF E9 74 00 00")) == 0x974  # hi-Z bits 7..5 ignored
-    assert mcp3204.decode(bytes.fromhex("00 0F FF FF E0")) == 4095
-    assert mcp3204.decode(bytes.fromhex("00 1F FF FF E0")) is None  # null bit set: wrong mode/framing
+    assert mcp3204.decode(bytes.fromhex("FE 97 49 2E")) == 0x974  # hi-Z bits 7..1 of byte 0 ignored
+    assert mcp3204.decode(bytes.fromhex("00 FF FF FE")) == 4095
+    assert mcp3204.decode(bytes.fromhex("01 FF FF FE")) is None  # null bit set: wrong mode/framing
     assert mcp3204.decode(b"\x00\x01") is None
     assert mcp3204.decode(bytes.fromhex("00 0F FF")) is None  # no repeat: not this driver's frame
 
 
 def _frame(code: int) -> bytes:
     """The MISO bytes the MCP3204 sends for ``code`` (DS21298E section 5.0)."""
-    bits = [0] * 11 + [0] + [(code >> (11 - i)) & 1 for i in range(12)] + [(code >> i) & 1 for i in range(1, 12)]
-    bits += [0] * (40 - len(bits))  # 11 hi-Z bits, the null bit, B11..B0, B1..B11, zeros
-    return bytes(int("".join(map(str, bits[8 * k + 0 : 8 * k + 8])), 2) for k in range(5))
+    bits = [0] * 7 + [0] + [(code >> (11 - i)) & 1 for i in range(12)] + [(code >> i) & 1 for i in range(1, 12)]
+    bits += [0] * (32 - len(bits))  # 7 hi-Z bits, the null bit, B11..B0, B1..B11, a zero
+    return bytes(int("".join(map(str, bits[8 * k + 0 : 8 * k + 8])), 2) for k in range(4))
 
 
-@given(code=st.integers(0, 4095), bit=st.integers(0, 39))
+@given(code=st.integers(0, 4095), bit=st.integers(0, 31))
 def test_the_lsb_first_repeat_catches_a_flipped_data_bit(code: int, bit: int) -> None:
     miso = _frame(code)
     assert mcp3204.decode(miso) == code and mcp3204.repeat_agrees(miso, code)
@@ -64,16 +64,16 @@ def test_the_lsb_first_repeat_catches_a_flipped_data_bit(code: int, bit: int) ->
     if got is not None and got != code:
         assert not mcp3204.repeat_agrees(bytes(flipped), got) or got ^ code == 1
     if got == code and not mcp3204.repeat_agrees(bytes(flipped), got):
-        assert 24 <= bit <= 34  # the repeat's own bits
+        assert 20 <= bit <= 30  # the repeat's own bits
 
 
 def test_pipelined_write_and_reply_layout() -> None:
     frames = [mcp3204.request(ch) for ch in range(4)]
     wire = bp.encode_transfers(frames)
-    # docs/protocols.md 7.1: 02 -> 01; 14 06 40 00 00 00 -> 01 ?? (0 B11..B8) (B7..B0) (B1..B8) (B9..B11 0...); 03 -> 01
-    assert wire[:8] == bytes.fromhex("02 14 06 00 00 00 00 03")
-    assert wire == b"".join(b"\x02\x14" + f + b"\x03" for f in frames)
-    assert len(wire) == 32 and bp.reply_length(frames) == 32
+    # docs/protocols.md 7.1: 02 -> 01; 13 64 00 00 00 -> 01 (?..? 0) (B11..B4) (B3..B0 B1..B4) (B5..B11 0); 03 -> 01
+    assert wire[:7] == bytes.fromhex("02 13 60 00 00 00 03")
+    assert wire == b"".join(b"\x02\x13" + f + b"\x03" for f in frames)
+    assert len(wire) == 28 and bp.reply_length(frames) == 28
     reply = b"".join(b"\x01\x01" + bytes((0, c >> 8, c & 0xFF)) + b"\x01" for c in (1, 2, 3, 4))
     assert bp.decode_transfers(reply, [3] * 4) == [bytes((0, 0, c)) for c in (1, 2, 3, 4)]
     assert bp.decode_transfers(reply[:-1], [3] * 4) == "short"
@@ -189,7 +189,7 @@ def test_one_write_one_read_per_tick() -> None:
     writes, reads = len(port.written), port.reads
     assert reader.read_codes(0) == (2420, 2703, 2048, 1392)
     assert len(port.written) - writes == 1 and port.reads - reads == 1
-    assert port.written[-1] == bytes.fromhex("02 14 06 00 00 00 00 03 02 14 06 40 00 00 00 03 02 14 06 80 00 00 00 03 02 14 06 c0 00 00 00 03")
+    assert port.written[-1] == bytes.fromhex("02 13 60 00 00 00 03 02 13 64 00 00 00 03 02 13 68 00 00 00 03 02 13 6c 00 00 00 03")
     assert dev.transactions == 4
 
 
@@ -212,7 +212,7 @@ def _until_codes(reader: Mcp3204Reader, port: FakeSerial, k0: int, limit: int = 
 
 def test_garbage_reply_resyncs_without_blocking_and_recovers() -> None:
     reader, bridge, dev, port = _reader()
-    dev.garbage_next = b"\x01\x01\xff\xff\xff\xff\xff\x00" * 4  # a bad ack in the last byte of each channel
+    dev.garbage_next = b"\x01\x01\xff\xff\xff\xff\x00" * 4  # a bad ack in the last byte of each channel
     assert reader.read_codes(0) is None
     assert bridge.counters["bad_ack"] == 1 and not bridge.in_sync
     writes = len(port.written)
@@ -239,9 +239,9 @@ def test_silent_bridge_is_retried_only_every_interval() -> None:
 
 def test_a_repeat_that_disagrees_is_no_reading_and_no_resync() -> None:
     reader, bridge, dev, port = _reader()
-    good = bytes.fromhex("00 07 26 c9 c0")  # 1830 (0x726), as the MCP3204 model sends it
+    good = bytes.fromhex("00 72 6c 9c")  # 1830 (0x726), as the MCP3204 model sends it
     assert mcp3204.decode(good) == 1830 and mcp3204.repeat_agrees(good, 1830)
-    dev.garbage_next = (b"\x01\x01" + bytes.fromhex("00 06 26 c9 c0") + b"\x01") * 4  # B8 flipped on MISO
+    dev.garbage_next = (b"\x01\x01" + bytes.fromhex("00 62 6c 9c") + b"\x01") * 4  # B8 flipped on MISO
     assert reader.read_codes(0) is None
     assert reader.counters["repeat_errors"] == 1 and reader.counters["failed_reads"] == 1
     assert bridge.in_sync and bridge.counters["resyncs"] == 0  # a bit error, not the framing
@@ -251,7 +251,7 @@ def test_a_repeat_that_disagrees_is_no_reading_and_no_resync() -> None:
 
 def test_null_bit_error_forces_a_resync() -> None:
     reader, bridge, dev, port = _reader()
-    dev.garbage_next = (b"\x01\x01\x00\x1f\xff\xff\xe0\x01") * 4
+    dev.garbage_next = (b"\x01\x01\x01\xff\xff\xfe\x01") * 4
     assert reader.read_codes(0) is None
     assert reader.counters["null_bit_errors"] == 1 and not bridge.in_sync
     _until_codes(reader, port, 1)
