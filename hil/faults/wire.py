@@ -68,10 +68,9 @@ class WireFault(Fault[WP]):
     def check(cls, params: Any, rig: Any) -> None:
         if params.port not in RIG_PORTS:
             raise Refused("port", f"no port {params.port!r} on this rig (ports: {', '.join(RIG_PORTS)})")
-        if rig.flight.board and params.port not in BOARD_PORTS:
-            if params.port == "adc" and cls.kind in SPI_LINE_FAULTS:
-                pass  # on SPI0's MISO (tx) and MOSI (rx) lines, bit by bit
-            elif params.port == "adc":
+        on_spi_lines = params.port == "adc" and cls.kind in SPI_LINE_FAULTS  # MISO (tx), MOSI (rx), bit by bit
+        if rig.flight.board and params.port not in BOARD_PORTS and not on_spi_lines:
+            if params.port == "adc":
                 raise Refused("kind", f"on this rig's board ({rig.flight.board}) the adc is the MCP3204 on SPI0, "
                                       "whose master clocks every bit: of the wire faults only "
                                       f"{' and '.join(SPI_LINE_FAULTS)} act on its lines")

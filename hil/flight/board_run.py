@@ -35,8 +35,6 @@ from hil.flight.devices import DeviceSet
 from hil.flight.tickloop import Mode
 from hil.transport.base import Port
 
-#: the ports a board run has: the two UARTs' devices, and the ground station's pty
-BOARD_PORTS = ("imu", "telemetry", "ground")
 #: the attachment holding the firmware flown (hil/fleet/verify.py reads it back)
 FIRMWARE_ATTACHMENT = "firmware.elf"
 

@@ -37,6 +37,7 @@ from hil.flight.board_esc import EscPins
 from hil.flight.board_port import BoardPort
 from hil.flight.board_probes import FirmwareProbes
 from hil.flight.devices import WireFilter
+from hil.transport.base import Direction
 
 PPM_PIN = (0, 10)  #: CAP1.0
 ADC_CS_PIN = (0, 20)
@@ -49,13 +50,13 @@ CHUNK_NS = 250_000
 DEAD_LINE = 0x00
 
 
-def _through(filters: Sequence[WireFilter], direction: str, word: int, t_ns: int) -> int:
-    """One SPI word through the adc port's wire faults (``direction`` "tx": MISO, "rx": MOSI).
-    Only faults that change bits act here (hil/faults/wire.py SPI_LINE_FAULTS): a word they
-    take away is the dead line's."""
+def _through(filters: Sequence[WireFilter], direction: Direction, word: int, t_ns: int) -> int:
+    """One SPI word through the adc port's wire faults (TX: MISO, RX: MOSI). Only faults that
+    change bits act here (hil/faults/wire.py SPI_LINE_FAULTS): a word they take away is the
+    dead line's."""
     data = bytes([word])
     for f in filters:
-        data = f.tx(data, t_ns) if direction == "tx" else f.rx(data, t_ns)
+        data = f.tx(data, t_ns) if direction is Direction.TX else f.rx(data, t_ns)
     return data[0] if data else DEAD_LINE
 
 
@@ -138,11 +139,11 @@ class BoardWiring:
     def _spi(self, mosi: int, transfer: SpiTransfer) -> int:
         t_ns = self.sim_ns(transfer.start)
         filters = self.wire_filters.get("adc")
-        seen = _through(filters, "rx", mosi, t_ns) if filters else mosi
+        seen = _through(filters, Direction.RX, mosi, t_ns) if filters else mosi
         miso = self.mcp.exchange(bytes([seen]), t_ns, transfer.mode,
                                  f_sck_Hz=self.bus.cclk_hz / transfer.sck_period)[0]
         if filters:
-            miso = _through(filters, "tx", miso, t_ns)
+            miso = _through(filters, Direction.TX, miso, t_ns)
         self.records.spi.append((t_ns, mosi, miso))  # at the MCU's pins: what it sent and read
         return miso
 

@@ -6,7 +6,6 @@
 
 uint8_t spi_stub_reply[64];
 uint8_t spi_stub_sent[64];
-size_t spi_stub_sent_n;
 int spi_stub_resyncs;
 
 int hal_spi_exchange(const uint8_t *mosi, uint8_t *miso, const uint8_t *lengths, size_t n_transfers, uint64_t t_ns)
@@ -16,7 +15,6 @@ int hal_spi_exchange(const uint8_t *mosi, uint8_t *miso, const uint8_t *lengths,
     for (size_t i = 0; i < n_transfers; i++)
         n += lengths[i];
     memcpy(spi_stub_sent, mosi, n);
-    spi_stub_sent_n = n;
     memcpy(miso, spi_stub_reply, n);
     return HAL_SPI_DONE;
 }
