@@ -56,7 +56,7 @@ class Pins:
         for pin in (Pin.CS, Pin.MISO, Pin.CLK, Pin.MOSI, Pin.AUX):
             if pin is Pin.MISO and self.direction & pin:
                 dout = adc.dout
-                level = (1 if self.pullups else 0) if dout is None else dout
+                level = (1 if self.pullups or adc.dout_pulled_up else 0) if dout is None else dout
             else:
                 level = self.level(pin) or 0
             value |= pin if level else 0

@@ -95,6 +95,9 @@ class Mcp3204:
         #: False: play every SCK edge of every byte (the reference for the byte-level path).
         self.fast_path = fast_path
         self.vref_V: float = params.vref_V
+        #: A pull-up on the DOUT line outside the part (another device's on a shared MISO, a
+        #: board's resistor): what a master reads while DOUT is hi-Z is 1 whatever it asks for.
+        self.dout_pulled_up = False
         self.counters: Counter[str] = Counter()
         self._sampler = sampler
         self._events: list[DeviceEvent] = []
@@ -172,6 +175,8 @@ class Mcp3204:
         if not self._cs_low:
             counters["bytes_while_deselected"] += n
         counters["spi_bytes"] += n
+        if self.dout_pulled_up:
+            hiz_bit = 1
         cpol = mode >> 1
         if self._sck != cpol:  # the master's clock returns to this mode's idle level
             self._edge(t_ns)

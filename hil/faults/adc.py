@@ -1,4 +1,4 @@
-"""ADC faults: an MCP3204 input stuck or open, its reference drifting.
+"""ADC faults: an MCP3204 input stuck or open, its reference drifting, its DOUT line pulled up.
 
 They use the analog front-end's input hooks (``set_channel_stuck``, ``set_channel_open``,
 combined by composers.AdcChannelComposer) and ``vref_V`` of the run's MCP3204 (the one
@@ -11,7 +11,7 @@ from typing import Any
 
 from pydantic import Field
 
-from hil.faults.base import NS_PER_S, Fault, FaultParams, Layer, Refused
+from hil.faults.base import NS_PER_S, Fault, FaultParams, Layer, NoParams, Refused
 from hil.faults.composers import AdcChannelEffect
 from hil.faults.imu import refuse_if_zero
 
@@ -132,4 +132,25 @@ class AdcVrefDrift(Fault[VrefParams]):
         return {"vref_V": self.env.devices.mcp.vref_V}
 
 
-FAULTS: tuple[type[Fault[Any]], ...] = (AdcChannelStuck, AdcChannelOpen, AdcVrefDrift)
+class AdcDoutPulledUp(Fault[NoParams]):
+    """A pull-up on the MCP3204's DOUT line (another SPI device's on the shared MISO, a board
+    resistor): the clocks before the null bit, DOUT still hi-Z, read 1 instead of 0."""
+
+    kind = "adc.dout_pulled_up"
+    layer = Layer.WIRE
+    Params = NoParams
+
+    @classmethod
+    def target_of(cls, params: Any) -> str:
+        return "adc DOUT"
+
+    def apply(self, t_ns: int) -> dict[str, Any]:
+        self.env.devices.mcp.dout_pulled_up = True
+        return {"dout_pulled_up": True}
+
+    def revert(self, t_ns: int) -> dict[str, Any]:
+        self.env.devices.mcp.dout_pulled_up = False
+        return {"dout_pulled_up": False}
+
+
+FAULTS: tuple[type[Fault[Any]], ...] = (AdcChannelStuck, AdcChannelOpen, AdcVrefDrift, AdcDoutPulledUp)

@@ -54,6 +54,7 @@ VALID: dict[str, dict[str, Any]] = {
     "adc.channel_stuck": {"channel": 0, "stuck_V": 2.0},
     "adc.channel_open": {"channel": 1},
     "adc.vref_drift": {"drift_V_per_s": -0.05},
+    "adc.dout_pulled_up": {},
     "wire.silence": {"port": "imu"},
     "wire.byte_loss": {"port": "rc", "loss_probability": 0.01},
     "wire.bit_flips": {"port": "telemetry", "direction": "both", "bit_error_rate": 1e-4},

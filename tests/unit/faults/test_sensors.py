@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from emulators.analog.inverse import f_B_mps2_from_codes, pressure_Pa_from_code
+from emulators.mcp3204.defs import fig61_decode, fig61_request
 from hil.faults import load_faults
 from hil.config.rig import Rig
 from tests.unit.faults.harness import Bench, adc_enter_spi, adc_series, imu_samples
@@ -279,3 +280,31 @@ async def test_adc_vref_step_and_drift(rig: Rig) -> None:
     assert b.devices.mcp.vref_V == 5.0
     starts = [d["changed"]["vref_V"] for _, _, d in b.fault_events(" start")]
     assert starts == [4.5, 5.0]
+
+
+async def _raw_replies(b: Bench, n_ticks: int) -> list[bytes]:
+    """The MCP3204's 3 bytes of a Fig. 6-1 read of CH1 after each tick, as the Bus Pirate returns them."""
+    client, out = b.ports["adc"].client, []
+    for _ in range(n_ticks):
+        await b.tick()
+        client.read_now()
+        await b.write("adc", b"\x02\x12" + fig61_request(1) + b"\x03")
+        out.append(client.read_now()[2:5])
+    return out
+
+
+async def test_adc_dout_pulled_up_reads_the_hi_z_clocks_as_ones_and_keeps_the_code(rig: Rig) -> None:
+    raw = [{"kind": "adc.dout_pulled_up", "t_s": 0.05, "duration_s": 0.05}]
+    faulty, clean = Bench(rig, load_faults(raw, rig, source="test")), Bench(rig)
+    replies = []
+    for b in (faulty, clean):
+        await adc_enter_spi(b)  # push-pull, pull-ups off: the Bus Pirate's own leave hi-Z at 0
+        replies.append(await _raw_replies(b, 60))
+    f, c = replies
+    # Fig. 6-1 puts 13 clocks before B11: DOUT is hi-Z for 12, then the null bit (0)
+    pulled = [r for r in f[rows(0.05, 0.1)]]
+    assert all(r[0] == 0xFF and r[1] & 0xF0 == 0xE0 for r in pulled)
+    assert all(r[0] == 0x00 and r[1] & 0xF0 == 0x00 for r in f[rows(0.0, 0.05)] + f[rows(0.1, 0.15)])
+    assert all(r[0] == 0x00 and r[1] & 0xF0 == 0x00 for r in c)
+    assert [fig61_decode(r) for r in f] == [fig61_decode(r) for r in c]  # the conversion is the same
+    assert not faulty.devices.mcp.dout_pulled_up
