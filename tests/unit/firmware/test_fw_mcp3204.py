@@ -1,5 +1,5 @@
 """The firmware's MCP3204 driver (firmware/src/drivers/mcp3204.c) through ctypes, against the
-Python flight code's (flightcode/drivers/mcp3204.py) on the same bytes: the 5-byte request,
+Python flight code's (flightcode/drivers/mcp3204.py) on the same bytes: the 4-byte request,
 the code, and the LSB-first repeat (DS21298E section 5.0) that catches a bit flipped on the
 line; a null bit re-applies the SPI setup, a repeat that disagrees does not."""
 
