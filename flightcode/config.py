@@ -131,6 +131,8 @@ def _check(file: str, cfg: FlightConfig) -> None:
         "plausibility.baro_flat_std_Pa": cfg.plausibility.baro_flat_std_Pa,
         "plausibility.accel_max_g": cfg.plausibility.accel_max_g,
         "plausibility.accel_xsens_tolerance_mps2": cfg.plausibility.accel_xsens_tolerance_mps2,
+        "plausibility.accel_offset_tau_s": cfg.plausibility.accel_offset_tau_s,
+        "plausibility.accel_offset_max_mps2": cfg.plausibility.accel_offset_max_mps2,
         "plausibility.baro_motion_block_s": cfg.plausibility.baro_motion_block_s,
         "plausibility.baro_motion_max_m": cfg.plausibility.baro_motion_max_m,
         "rc.capture.lock_frames": cfg.rc.capture.lock_frames, "rc.capture.stale_ms": cfg.rc.capture.stale_ms,

@@ -232,9 +232,13 @@ class FlightLoop(LoopParts):
             a_up = a_up_xsens
         elif f_adxl is not None:
             a_up = -(-sth * f_adxl[0] + sphi * cth * f_adxl[1] + cphi * cth * f_adxl[2]) - G0_MPS2
-            # the same airframe's other accelerometer must agree (once the offsets are known)
-            if self.baro_ref.ready and not self.plausible.accel_agrees(a_up, a_up_xsens):
-                a_up = None
+            # the same airframe's other accelerometer must agree (once the offsets are known),
+            # sample by sample and in the mean: an ADXL335 whose offset moved is replaced by it
+            if self.baro_ref.ready:
+                if not self.plausible.accel_agrees(a_up, a_up_xsens):
+                    a_up = None
+                elif not self.plausible.accel_offset_holds(a_up, a_up_xsens, dt_s):
+                    a_up = a_up_xsens
         if self.plausible.refused != refused:  # this sample's ADC reading was (partly) implausible
             self._rare("adc_implausible", "adc.implausible", **self.plausible.counters)
         if self.baro_ref.ready:

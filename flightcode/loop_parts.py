@@ -250,6 +250,7 @@ class LoopParts:
                       adc_implausible=self.plausible.refused, baro_rejected=self.kf.counters["baro_rejected"],
                       baro_motion_worst_m=round(self.baro_motion.take_worst(), 3) if self.baro_motion else "off",
                       baro_motion_refused=self.counters["baro_motion_refused"],
+                      accel_offset_worst_mps2=round(self.plausible.take_offset_worst(), 3),
                       hover_collective=self.hover.collective,
                       rc_errors=self._rc_errors(),
                       telemetry_sent=d.telemetry.counters["sent"] if d.telemetry is not None else 0)

@@ -131,6 +131,8 @@ void cfg_defaults(fc_config_t *c)
     c->plausibility.baro_flat_std_Pa = 1.5f;
     c->plausibility.accel_max_g = 5.0f;
     c->plausibility.accel_xsens_tolerance_mps2 = 3.0f;
+    c->plausibility.accel_offset_tau_s = 1.0f;
+    c->plausibility.accel_offset_max_mps2 = 0.25f;
     c->plausibility.baro_motion_window_s = 1.5f;
     c->plausibility.baro_motion_block_s = 0.25f;
     c->plausibility.baro_motion_max_m = 1.5f;
@@ -477,6 +479,8 @@ static bool check(const fc_config_t *c, cfg_error_t *err)
         {"plausibility.baro_flat_std_Pa", c->plausibility.baro_flat_std_Pa},
         {"plausibility.accel_max_g", c->plausibility.accel_max_g},
         {"plausibility.accel_xsens_tolerance_mps2", c->plausibility.accel_xsens_tolerance_mps2},
+        {"plausibility.accel_offset_tau_s", c->plausibility.accel_offset_tau_s},
+        {"plausibility.accel_offset_max_mps2", c->plausibility.accel_offset_max_mps2},
         {"plausibility.baro_motion_block_s", c->plausibility.baro_motion_block_s},
         {"plausibility.baro_motion_max_m", c->plausibility.baro_motion_max_m},
         {"rc.capture.lock_frames", (double)c->rc.capture.lock_frames},

@@ -87,6 +87,7 @@ typedef struct {
     } kf;
     struct {
         float baro_max_step_Pa, baro_flat_std_Pa, accel_max_g, accel_xsens_tolerance_mps2;
+        float accel_offset_tau_s, accel_offset_max_mps2;
         int64_t baro_flat_readings;
         float baro_motion_window_s, baro_motion_block_s, baro_motion_max_m;
     } plausibility;

@@ -111,6 +111,8 @@ const cfg_key_t cfg_keys[] = {
     {"plausibility.baro_flat_std_Pa", CK_FLOAT, AT(plausibility.baro_flat_std_Pa), NULL},
     {"plausibility.accel_max_g", CK_FLOAT, AT(plausibility.accel_max_g), NULL},
     {"plausibility.accel_xsens_tolerance_mps2", CK_FLOAT, AT(plausibility.accel_xsens_tolerance_mps2), NULL},
+    {"plausibility.accel_offset_tau_s", CK_FLOAT, AT(plausibility.accel_offset_tau_s), NULL},
+    {"plausibility.accel_offset_max_mps2", CK_FLOAT, AT(plausibility.accel_offset_max_mps2), NULL},
     {"plausibility.baro_motion_window_s", CK_FLOAT, AT(plausibility.baro_motion_window_s), NULL},
     {"plausibility.baro_motion_block_s", CK_FLOAT, AT(plausibility.baro_motion_block_s), NULL},
     {"plausibility.baro_motion_max_m", CK_FLOAT, AT(plausibility.baro_motion_max_m), NULL},

@@ -192,9 +192,14 @@ static bool estimate_altitude(flight_loop_t *L, const imu_sample_t *s, int64_t d
     } else if (have_f) {
         a_up = -(-t->sth * f_adxl[0] + t->sphi * t->cth * f_adxl[1] + t->cphi * t->cth * f_adxl[2]) - G0_MPS2;
         have_a = true;
-        /* the same airframe's other accelerometer must agree (once the offsets are known) */
-        if (L->baro_ref.ready && !plausibility_accel_agrees(&L->plausible, a_up, a_up_xsens))
-            have_a = false;
+        /* the same airframe's other accelerometer must agree (once the offsets are known),
+         * sample by sample and in the mean: an ADXL335 whose offset moved is replaced by it */
+        if (L->baro_ref.ready) {
+            if (!plausibility_accel_agrees(&L->plausible, a_up, a_up_xsens))
+                have_a = false;
+            else if (!plausibility_accel_offset_holds(&L->plausible, a_up, a_up_xsens, dt_s))
+                a_up = a_up_xsens;
+        }
     }
     if (plausibility_refused(&L->plausible) != refused && loop_rare(&L->counters.adc_implausible) &&
         log_begin(LOG_WARNING, "adc.implausible")) {
@@ -205,6 +210,7 @@ static bool estimate_altitude(flight_loop_t *L, const imu_sample_t *s, int64_t d
         log_int("baro_step", c->baro_step);
         log_int("accel_out_of_range", c->accel_out_of_range);
         log_int("accel_disagrees_xsens", c->accel_disagrees_xsens);
+        log_int("accel_offset_moved", c->accel_offset_moved);
         log_end();
     }
     if (L->baro_ref.ready)

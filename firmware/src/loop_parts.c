@@ -100,6 +100,8 @@ bool loop_init(flight_loop_t *L, const fc_config_t *cfg, cfg_error_t *err)
     pp.baro_flat_std_Pa = cfg->plausibility.baro_flat_std_Pa;
     pp.accel_max_g = cfg->plausibility.accel_max_g;
     pp.accel_xsens_tolerance_mps2 = cfg->plausibility.accel_xsens_tolerance_mps2;
+    pp.accel_offset_tau_s = cfg->plausibility.accel_offset_tau_s;
+    pp.accel_offset_max_mps2 = cfg->plausibility.accel_offset_max_mps2;
     if (cfg->plausibility.baro_flat_readings > FLAT_LINE_MAX_READINGS || !plausibility_init(&L->plausible, &pp))
         return fail(err, "plausibility.baro_flat_readings", "beyond what this build's flat-line window holds");
     L->baro_motion_on = cfg->plausibility.baro_motion_window_s > 0.0f;
@@ -358,6 +360,7 @@ void loop_log_stats(flight_loop_t *L, fc_mode_t mode, float z_hat)
         else
             log_str("baro_motion_worst_m", "off");
         log_int("baro_motion_refused", L->counters.baro_motion_refused);
+        log_float("accel_offset_worst_mps2", roundf(plausibility_take_offset_worst(&L->plausible) * 1000.0f) / 1000.0f);
         log_float("hover_collective", L->hover.collective);
         log_int("rc_errors", rc_errors(&L->rc));
         log_int("telemetry_sent", L->telemetry_on ? L->telemetry.counters.sent : 0);

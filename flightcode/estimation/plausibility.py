@@ -18,7 +18,13 @@ what the sensors can physically produce, and the reading is treated as missing (
   the datasheet's swing ends 0.1-0.2 V inside them; the top bit of a code flipped puts it
   beyond), and, once the boot offsets are removed, its vertical
   acceleration must agree with the XSENS's within ``accel_xsens_tolerance_mps2`` (both are
-  strapped to the same airframe).
+  strapped to the same airframe), and so must its mean: the difference low-passed over
+  ``accel_offset_tau_s`` within ``accel_offset_max_mps2``. An ADXL335 whose offset moves in
+  flight (its temperature drift, a supply that moves its ratiometric zero, vibration rectified
+  by its output) is otherwise integrated into the height, and the barometer-motion check then
+  refuses the barometer that disagrees with it: the estimate runs away. The XSENS's
+  accelerometer is factory-calibrated over temperature; while the means disagree, the loop
+  flies the altitude filter on it, until they agree within half the limit again.
 
 Pure functions of their inputs plus the previous pressure: no I/O, no clock.
 """
@@ -54,6 +60,12 @@ class PlausibilityParams:
         accel_xsens_tolerance_mps2: largest believable difference between the ADXL335's and
             the XSENS's vertical acceleration, m/s^2 (3: the ADXL335's 10 % sensitivity
             tolerance at 2 g plus its 50 Hz output filter's lag behind a touchdown).
+        accel_offset_tau_s: time constant of the low-pass over the two vertical accelerations'
+            difference, s (1: the ADXL335's 50 Hz filter lag and the airframe's vibration
+            average out, an offset that moved is seen within a few seconds).
+        accel_offset_max_mps2: largest believable mean difference, m/s^2 (0.25; the clean
+            suite stays below 0.14, transit's 16 deg of pitch the most; an offset of 0.6 m/s^2 integrated for the
+            barometer-motion check's window already refuses a healthy barometer).
         baro_motion_window_s: the barometer's height change is compared with the
             accelerometers' over this window, s (1.5; 0 turns the check off;
             :mod:`flightcode.estimation.baro_motion`).
@@ -72,6 +84,8 @@ class PlausibilityParams:
     baro_flat_std_Pa: float = 1.5
     accel_max_g: float = 5.0
     accel_xsens_tolerance_mps2: float = 3.0
+    accel_offset_tau_s: float = 1.0
+    accel_offset_max_mps2: float = 0.25
     baro_motion_window_s: float = 1.5
     baro_motion_block_s: float = 0.25
     baro_motion_max_m: float = 1.5
@@ -81,7 +95,7 @@ class AdcPlausibility:
     """Judges each converted ADC reading; ``counters`` says how many were refused and why.
 
     Counters: ``baro_out_of_range``, ``baro_flat``, ``baro_step``, ``accel_out_of_range``,
-    ``accel_disagrees_xsens`` (one per refused reading).
+    ``accel_disagrees_xsens``, ``accel_offset_moved`` (one per refused reading).
     """
 
     def __init__(self, params: PlausibilityParams) -> None:
@@ -90,6 +104,10 @@ class AdcPlausibility:
         self._p_prev_Pa: float | None = None
         self._flat = FlatLine(params.baro_flat_readings, params.baro_flat_std_Pa) if params.baro_flat_readings else None
         self.counters: Counter[str] = Counter()
+        self._offset_mps2 = 0.0  # low-passed ADXL335 - XSENS vertical acceleration
+        self._offset_worst_mps2 = 0.0
+        #: True while the ADXL335's mean disagrees with the XSENS's (its offset moved)
+        self.offset_moved = False
 
     @property
     def refused(self) -> int:
@@ -138,6 +156,29 @@ class AdcPlausibility:
             return True
         self.counters["accel_disagrees_xsens"] += 1
         return False
+
+    def accel_offset_holds(self, a_up_mps2: float, a_up_xsens_mps2: float, dt_s: float) -> bool:
+        """True while the ADXL335's mean vertical acceleration agrees with the XSENS's: their
+        difference low-passed over ``accel_offset_tau_s`` within ``accel_offset_max_mps2``, and
+        once beyond, back within half of it (counted when it does not hold). Call it for
+        readings :meth:`accel_agrees` accepted, with the sample's ``dt_s``."""
+        p = self.params
+        if dt_s > 0.0:
+            self._offset_mps2 += dt_s / (p.accel_offset_tau_s + dt_s) * (a_up_mps2 - a_up_xsens_mps2 - self._offset_mps2)
+        size = abs(self._offset_mps2)
+        self._offset_worst_mps2 = max(self._offset_worst_mps2, size)
+        if self.offset_moved:
+            self.offset_moved = size > 0.5 * p.accel_offset_max_mps2
+        else:
+            self.offset_moved = size > p.accel_offset_max_mps2
+        if self.offset_moved:
+            self.counters["accel_offset_moved"] += 1
+        return not self.offset_moved
+
+    def take_offset_worst(self) -> float:
+        """The largest |low-passed difference| since the last call, m/s^2 (then reset)."""
+        worst, self._offset_worst_mps2 = self._offset_worst_mps2, 0.0
+        return worst
 
 
 class FlatLine:

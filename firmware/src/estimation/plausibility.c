@@ -164,8 +164,34 @@ bool plausibility_accel_agrees(plausibility_t *pl, float a_up_mps2, float a_up_x
     return false;
 }
 
+bool plausibility_accel_offset_holds(plausibility_t *pl, float a_up_mps2, float a_up_xsens_mps2, float dt_s)
+{
+    const float max = pl->p.accel_offset_max_mps2;
+    if (dt_s > 0.0f) {
+        pl->offset_mps2 += dt_s / (pl->p.accel_offset_tau_s + dt_s) * (a_up_mps2 - a_up_xsens_mps2 - pl->offset_mps2);
+    }
+    float size = fabsf(pl->offset_mps2);
+    if (size > pl->offset_worst_mps2) {
+        pl->offset_worst_mps2 = size;
+    }
+    /* once beyond, it must come back within half the limit: no flicker at the edge */
+    pl->offset_moved = size > (pl->offset_moved ? 0.5f * max : max);
+    if (pl->offset_moved) {
+        pl->counters.accel_offset_moved++;
+    }
+    return !pl->offset_moved;
+}
+
+float plausibility_take_offset_worst(plausibility_t *pl)
+{
+    float worst = pl->offset_worst_mps2;
+    pl->offset_worst_mps2 = 0.0f;
+    return worst;
+}
+
 uint32_t plausibility_refused(const plausibility_t *pl)
 {
     const plausibility_counters_t *c = &pl->counters;
-    return c->baro_out_of_range + c->baro_flat + c->baro_step + c->accel_out_of_range + c->accel_disagrees_xsens;
+    return c->baro_out_of_range + c->baro_flat + c->baro_step + c->accel_out_of_range + c->accel_disagrees_xsens +
+           c->accel_offset_moved;
 }

@@ -13,7 +13,11 @@
  *                  the previous reading (accepted or not; the first reading, and the first after
  *                  a missing or out-of-range one, are judged on range and flat line only);
  *   accelerometer  every ADXL335 axis within accel_max_g (its supply rails); its vertical
- *                  acceleration within accel_xsens_tolerance_mps2 of the XSENS's.
+ *                  acceleration within accel_xsens_tolerance_mps2 of the XSENS's, and its mean
+ *                  too: the difference low-passed over accel_offset_tau_s within
+ *                  accel_offset_max_mps2 (an offset that moved in flight; once beyond, back
+ *                  within half of it). The loop then flies the altitude filter on the XSENS's
+ *                  vertical acceleration (factory-calibrated over temperature).
  *
  * Pure functions of their inputs plus the previous pressure and the flat-line window.
  */
@@ -42,6 +46,8 @@ typedef struct {
     float baro_flat_std_Pa;          /* plausibility.baro_flat_std_Pa */
     float accel_max_g;               /* plausibility.accel_max_g */
     float accel_xsens_tolerance_mps2; /* plausibility.accel_xsens_tolerance_mps2 */
+    float accel_offset_tau_s;        /* plausibility.accel_offset_tau_s */
+    float accel_offset_max_mps2;     /* plausibility.accel_offset_max_mps2 */
 } plausibility_params_t;
 
 /*
@@ -82,6 +88,7 @@ typedef struct {
     uint32_t baro_step;
     uint32_t accel_out_of_range;
     uint32_t accel_disagrees_xsens;
+    uint32_t accel_offset_moved;
 } plausibility_counters_t;
 
 typedef struct {
@@ -91,6 +98,9 @@ typedef struct {
     float p_prev_Pa;
     bool flat_on;         /* baro_flat_readings > 0 */
     flat_line_t flat;
+    float offset_mps2;       /* low-passed ADXL335 - XSENS vertical acceleration */
+    float offset_worst_mps2; /* its largest size since plausibility_take_offset_worst */
+    bool offset_moved;       /* the means disagree: the ADXL335's offset moved */
     plausibility_counters_t counters;
 } plausibility_t;
 
@@ -113,6 +123,13 @@ bool plausibility_accel_in_range(plausibility_t *pl, const float f_B_mps2[3]);
 
 /* True if the ADXL335's vertical acceleration agrees with the XSENS's (counted if not). */
 bool plausibility_accel_agrees(plausibility_t *pl, float a_up_mps2, float a_up_xsens_mps2);
+
+/* True while the ADXL335's mean vertical acceleration agrees with the XSENS's (counted if not).
+ * For readings plausibility_accel_agrees accepted; dt_s the sample's period. */
+bool plausibility_accel_offset_holds(plausibility_t *pl, float a_up_mps2, float a_up_xsens_mps2, float dt_s);
+
+/* The largest |low-passed difference| since the last call, m/s^2 (then reset). */
+float plausibility_take_offset_worst(plausibility_t *pl);
 
 /* Readings refused so far, all reasons. */
 uint32_t plausibility_refused(const plausibility_t *pl);

@@ -79,19 +79,20 @@ void shim_kf_read(const altitude_kf_t *kf, float x[5], float P[25], uint32_t cou
 
 /* -- plausibility ----------------------------------------------------------------------------- */
 bool shim_plaus_init(plausibility_t *pl, float max_step_Pa, uint16_t flat_n, float flat_std_Pa, float accel_max_g,
-                     float tol_mps2)
+                     float tol_mps2, float offset_tau_s, float offset_max_mps2)
 {
-    plausibility_params_t p = {max_step_Pa, flat_n, flat_std_Pa, accel_max_g, tol_mps2};
+    plausibility_params_t p = {max_step_Pa, flat_n, flat_std_Pa, accel_max_g, tol_mps2, offset_tau_s, offset_max_mps2};
     return plausibility_init(pl, &p);
 }
 
-void shim_plaus_read(const plausibility_t *pl, uint32_t counters[5], bool *flat)
+void shim_plaus_read(const plausibility_t *pl, uint32_t counters[6], bool *flat)
 {
     counters[0] = pl->counters.baro_out_of_range;
     counters[1] = pl->counters.baro_flat;
     counters[2] = pl->counters.baro_step;
     counters[3] = pl->counters.accel_out_of_range;
     counters[4] = pl->counters.accel_disagrees_xsens;
+    counters[5] = pl->counters.accel_offset_moved;
     *flat = plausibility_baro_flat(pl);
 }
 

@@ -97,12 +97,39 @@ def test_adc_plausibility_over_a_corrupted_stream(lib: cfw.Lib, flat_n: int) -> 
         if rng.random() < 0.01:
             f = (f[0], f32(rng.choice([-1, 1]) * 60.0), math.inf if rng.random() < 0.2 else f[2])
         assert py.accel_in_range(f) == c.accel_in_range(f), f"reading {k}: {f}"
-        a, ax = f32(rng.normal(0.0, 2.0)), f32(rng.normal(0.0, 2.0))
-        assert py.accel_agrees(a, ax) == c.accel_agrees(a, ax)
+        ax = f32(rng.normal(0.0, 2.0))
+        a = f32(ax + rng.normal(0.0, 2.0) + (0.6 if 10_000 <= k < 20_000 else 0.0))  # an offset that moves
+        agrees = py.accel_agrees(a, ax)
+        assert agrees == c.accel_agrees(a, ax)
+        if agrees:  # as the loop asks
+            assert py.accel_offset_holds(a, ax, 0.0025) == c.accel_offset_holds(a, ax, 0.0025), f"reading {k}"
     counters, flat, refused = c.read()
     assert counters == {k: py.counters[k] for k in cfw.CPlausibility.COUNTERS}
     assert flat == py.baro_flat and refused == py.refused
     assert all(counters[k] > 0 for k in cfw.CPlausibility.COUNTERS if k != "baro_flat" or flat_n)
+
+
+def test_an_accelerometer_offset_that_moves_is_seen_and_taken_back_with_hysteresis(lib: cfw.Lib) -> None:
+    params = PlausibilityParams()
+    py = AdcPlausibility(params)
+    c = cfw.CPlausibility(lib, params.baro_max_step_Pa, 40, params.baro_flat_std_Pa, params.accel_max_g,
+                          params.accel_xsens_tolerance_mps2, params.accel_offset_tau_s, params.accel_offset_max_mps2)
+    offsets = [0.0] * 400 + [0.6] * 2000 + [0.2] * 2000 + [0.1] * 2000  # 1 s, 5 s, 5 s, 5 s at 400 Hz
+    verdicts = []
+    for k, off in enumerate(offsets):
+        a_x = f32(0.3 * math.sin(k / 50.0))  # the vehicle's own motion: both see it
+        v = py.accel_offset_holds(f32(a_x + off), a_x, 0.0025)
+        assert v == c.accel_offset_holds(f32(a_x + off), a_x, 0.0025), f"sample {k}"
+        verdicts.append(v)
+    first_out = verdicts.index(False)
+    # 0.6 through a 1 s low-pass passes 0.25 after ln(0.6 / 0.35) = 0.54 s
+    assert first_out == pytest.approx(400 + 0.54 * 400, abs=4)
+    assert not any(verdicts[first_out:2400])
+    assert not any(verdicts[2400:4400])  # 0.2 is inside the limit but not inside half of it: still out
+    assert all(verdicts[4400 + 800:])  # 0.1 is: back within 2 s
+    assert c.read()[0]["accel_offset_moved"] == py.counters["accel_offset_moved"] == verdicts.count(False)
+    assert c.take_offset_worst() == pytest.approx(py.take_offset_worst(), abs=1e-5) and py.take_offset_worst() == 0.0
+    assert c.take_offset_worst() == 0.0
 
 
 def test_limits_are_the_params(lib: cfw.Lib) -> None:
