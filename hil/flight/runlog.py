@@ -89,9 +89,13 @@ class RunLogger:
         )
         trace.define("esc", {"cmd_us": 4, "throttle": 4, "armed": 4})
         #: bench-side counters at each tick: ADC conversions the emulated ADC served since boot
-        #: (a driver that stopped reading, or never gets past the bridge, serves none)
-        trace.define("dev", {"adc_conversions": 1})
+        #: (a driver that stopped reading, or never gets past the bridge, serves none), and the
+        #: bytes the IMU's line lost on their way to the flight code (wire faults on port imu:
+        #: what went in and did not come out, held bytes included while held)
+        trace.define("dev", {"adc_conversions": 1, "imu_bytes_lost": 1})
         self.adc_conversions = 0
+        #: each wire fault ever on port imu (kept: it leaves the port when it ends) -> bytes lost
+        self._imu_lost: dict[int, tuple[object, int]] = {}
         devices.event_sinks.append(self.on_event)
         if recorder is not None:
             for port in ports.values():
@@ -197,6 +201,15 @@ class RunLogger:
             )
 
     # -- per tick -------------------------------------------------------------------------------------
+    def _imu_bytes_lost(self) -> int:
+        filters = self.devices.wire_filters.get("imu")
+        if filters:
+            for f in filters:
+                counters = getattr(f, "counters", None)
+                if counters is not None:
+                    self._imu_lost[id(f)] = (f, counters["tx_bytes_in"] - counters["tx_bytes_out"])
+        return sum(n for _, n in self._imu_lost.values())
+
     def after_tick(self, k: int, t_ns: int) -> None:
         d = self.devices
         st = d.plant.state
@@ -213,7 +226,7 @@ class RunLogger:
         )
         armed = tuple(1.0 if e.armed else 0.0 for e in d.escs)
         self.trace.row("esc", t_ns, (*self._last_cmd_us, *d.throttle, *armed))
-        self.trace.row("dev", t_ns, (float(self.adc_conversions),))
+        self.trace.row("dev", t_ns, (float(self.adc_conversions), float(self._imu_bytes_lost())))
         rec = self.out
         t_host = clock.monotonic_ns()
         if d.rc_frames:
