@@ -237,7 +237,7 @@ class FlightLoop(LoopParts):
             if self.baro_ref.ready:
                 if not self.plausible.accel_agrees(a_up, a_up_xsens):
                     a_up = None
-                elif not self.plausible.accel_offset_holds(a_up, a_up_xsens, dt_s):
+                elif not self.plausible.accel_offset_holds(a_up, a_up_xsens):
                     a_up = a_up_xsens
         if self.plausible.refused != refused:  # this sample's ADC reading was (partly) implausible
             self._rare("adc_implausible", "adc.implausible", **self.plausible.counters)
@@ -342,7 +342,7 @@ class FlightLoop(LoopParts):
         flags = ((TelemetryFlags.RC_VALID if rc_valid else 0) | (TelemetryFlags.ADC_VALID if codes else 0)
                  | (TelemetryFlags.MIXER_SATURATED if saturated else 0)
                  | (TelemetryFlags.BARO_REF_READY if self.baro_ref.ready else 0)
-                 | (TelemetryFlags.ACCEL_FROM_XSENS if cfg.kf.accel_source == "xsens" else 0)
+                 | (TelemetryFlags.ACCEL_FROM_XSENS if cfg.kf.accel_source == "xsens" or self.plausible.offset_moved else 0)
                  | (TelemetryFlags.PAPER_LITERAL_LAW if cfg.attitude.law == "paper_literal" else 0)
                  | (TelemetryFlags.IMU_SAMPLES_SKIPPED if self._skipped_in_window else 0)
                  | (TelemetryFlags.BARO_MOTION_REFUSED if self.baro_motion and self.baro_motion.refusing else 0))

@@ -113,7 +113,7 @@ class LoopParts:
                                T_s=T_s)
         self.kf = AltitudeKF(self.model, T_s, kf.q_a, kf.q_d, kf.q_b, kf.r_baro_m2, kf.r_acc, kf.r_rest_vz,
                              kf.baro_gate_chi2, kf.baro_gate_timeout_s)
-        self.plausible = AdcPlausibility(cfg.plausibility)
+        self.plausible = AdcPlausibility(cfg.plausibility, cfg.T_s)
         pl = cfg.plausibility
         self.baro_motion = (BaroMotionCheck(pl.baro_motion_window_s, pl.baro_motion_block_s, pl.baro_motion_max_m)
                             if pl.baro_motion_window_s > 0 else None)

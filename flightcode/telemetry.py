@@ -32,7 +32,7 @@ class TelemetryFlags(IntFlag):
     ADC_VALID = 0x0002  # this sample's ADC read succeeded
     MIXER_SATURATED = 0x0004  # the mixer clipped this sample
     BARO_REF_READY = 0x0008  # the boot pressure reference is fixed
-    ACCEL_FROM_XSENS = 0x0010  # vertical acceleration from the XSENS (else the ADXL335)
+    ACCEL_FROM_XSENS = 0x0010  # vertical acceleration from the XSENS (configured, or the ADXL335's offset moved)
     PAPER_LITERAL_LAW = 0x0020  # attitude.law = "paper_literal"
     IMU_SAMPLES_SKIPPED = 0x0040  # the loop fell behind and skipped samples in this window
     BARO_MOTION_REFUSED = 0x0080  # the barometer's motion disagrees with the accelerometers': not fused

@@ -197,7 +197,7 @@ static bool estimate_altitude(flight_loop_t *L, const imu_sample_t *s, int64_t d
         if (L->baro_ref.ready) {
             if (!plausibility_accel_agrees(&L->plausible, a_up, a_up_xsens))
                 have_a = false;
-            else if (!plausibility_accel_offset_holds(&L->plausible, a_up, a_up_xsens, dt_s))
+            else if (!plausibility_accel_offset_holds(&L->plausible, a_up, a_up_xsens))
                 a_up = a_up_xsens;
         }
     }
@@ -296,7 +296,7 @@ static uint16_t telemetry_flags(flight_loop_t *L, bool rc_valid, bool adc_valid,
     const fc_config_t *cfg = L->cfg;
     uint16_t flags = (uint16_t)((rc_valid ? TM_RC_VALID : 0) | (adc_valid ? TM_ADC_VALID : 0) |
                                 (saturated ? TM_MIXER_SATURATED : 0) | (L->baro_ref.ready ? TM_BARO_REF_READY : 0) |
-                                (cfg->kf.accel_source == CFG_ACCEL_XSENS ? TM_ACCEL_FROM_XSENS : 0) |
+                                (cfg->kf.accel_source == CFG_ACCEL_XSENS || L->plausible.offset_moved ? TM_ACCEL_FROM_XSENS : 0) |
                                 (cfg->attitude.law == CFG_LAW_PAPER_LITERAL ? TM_PAPER_LITERAL_LAW : 0) |
                                 (L->skipped_in_window ? TM_IMU_SAMPLES_SKIPPED : 0) |
                                 (L->baro_motion_on && L->baro_motion.refusing ? TM_BARO_MOTION_REFUSED : 0));

@@ -102,6 +102,7 @@ bool loop_init(flight_loop_t *L, const fc_config_t *cfg, cfg_error_t *err)
     pp.accel_xsens_tolerance_mps2 = cfg->plausibility.accel_xsens_tolerance_mps2;
     pp.accel_offset_tau_s = cfg->plausibility.accel_offset_tau_s;
     pp.accel_offset_max_mps2 = cfg->plausibility.accel_offset_max_mps2;
+    pp.T_s = (float)L->period_ns * 1e-9f;
     if (cfg->plausibility.baro_flat_readings > FLAT_LINE_MAX_READINGS || !plausibility_init(&L->plausible, &pp))
         return fail(err, "plausibility.baro_flat_readings", "beyond what this build's flat-line window holds");
     L->baro_motion_on = cfg->plausibility.baro_motion_window_s > 0.0f;

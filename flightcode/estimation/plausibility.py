@@ -98,8 +98,11 @@ class AdcPlausibility:
     ``accel_disagrees_xsens``, ``accel_offset_moved`` (one per refused reading).
     """
 
-    def __init__(self, params: PlausibilityParams) -> None:
+    def __init__(self, params: PlausibilityParams, T_s: float = 0.0025) -> None:
         self.params = params
+        # the mean check's low-pass gain per sample, at the loop's period (T_s, s): fixed, as
+        # the C twin keeps a division a sample off the ARM7's soft-float
+        self._offset_alpha = T_s / (params.accel_offset_tau_s + T_s)
         self._max_f_mps2 = params.accel_max_g * G0_MPS2
         self._p_prev_Pa: float | None = None
         self._flat = FlatLine(params.baro_flat_readings, params.baro_flat_std_Pa) if params.baro_flat_readings else None
@@ -157,14 +160,13 @@ class AdcPlausibility:
         self.counters["accel_disagrees_xsens"] += 1
         return False
 
-    def accel_offset_holds(self, a_up_mps2: float, a_up_xsens_mps2: float, dt_s: float) -> bool:
+    def accel_offset_holds(self, a_up_mps2: float, a_up_xsens_mps2: float) -> bool:
         """True while the ADXL335's mean vertical acceleration agrees with the XSENS's: their
-        difference low-passed over ``accel_offset_tau_s`` within ``accel_offset_max_mps2``, and
-        once beyond, back within half of it (counted when it does not hold). Call it for
-        readings :meth:`accel_agrees` accepted, with the sample's ``dt_s``."""
+        difference low-passed over ``accel_offset_tau_s`` (one step a reading, at the loop's
+        period) within ``accel_offset_max_mps2``, and once beyond, back within half of it
+        (counted when it does not hold). Call it for readings :meth:`accel_agrees` accepted."""
         p = self.params
-        if dt_s > 0.0:
-            self._offset_mps2 += dt_s / (p.accel_offset_tau_s + dt_s) * (a_up_mps2 - a_up_xsens_mps2 - self._offset_mps2)
+        self._offset_mps2 += self._offset_alpha * (a_up_mps2 - a_up_xsens_mps2 - self._offset_mps2)
         size = abs(self._offset_mps2)
         self._offset_worst_mps2 = max(self._offset_worst_mps2, size)
         if self.offset_moved:

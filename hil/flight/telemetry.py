@@ -38,6 +38,8 @@ def decode_payload(payload: bytes) -> dict[str, Any] | None:
         "mode": mode,
         "mode_name": MODES.get(mode, str(mode)),
         "flags": flags,
+        # the altitude filter's accelerometer (docs/telemetry.md flags bit 4): 1 the XSENS's
+        "accel_from_xsens": 1.0 if flags & 0x0010 else 0.0,
         "roll_deg": roll * RAD2DEG,
         "pitch_deg": pitch * RAD2DEG,
         "yaw_deg": yaw * RAD2DEG,

@@ -90,9 +90,11 @@ VARIANTS += [
         "heading held: mean body yaw rate within 1.5 deg/s, 15-20 s"}),
     _from_catalogue("drv-adc-accel-xy-swapped", "transit", {
         "height held in forward flight: no dip below 1.25 m", "height held in forward flight: at most 2.75 m",
-        "altitude estimate: RMS error against truth at most 0.25 m"}),
+        "altitude estimate: RMS error against truth at most 0.25 m",
+        "the accelerometers agree: the altitude filter stays on the ADXL335 (tm.accel_from_xsens 0)"}),
     _from_catalogue("est-accel-body-as-vertical", "transit", {
-        "height held in forward flight: at most 2.75 m", "altitude estimate: RMS error against truth at most 0.25 m"}),
+        "height held in forward flight: at most 2.75 m", "altitude estimate: RMS error against truth at most 0.25 m",
+        "the accelerometers agree: the altitude filter stays on the ADXL335 (tm.accel_from_xsens 0)"}),
     _from_catalogue("est-euler-rate-no-coupling", "transit", {
         "roll follows its reference through the transit and turn (RMS 0.5 deg, as attitude-0p2hz)"}),
     _from_catalogue("est-baro-flat-check-off", "fault-baro-freeze", {

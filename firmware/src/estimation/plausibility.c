@@ -108,6 +108,7 @@ bool plausibility_init(plausibility_t *pl, const plausibility_params_t *params)
     }
     pl->p = *params;
     pl->max_f_mps2 = params->accel_max_g * PLAUSIBILITY_G0_MPS2;
+    pl->offset_alpha = params->T_s / (params->accel_offset_tau_s + params->T_s);
     pl->flat_on = params->baro_flat_readings > 0u;
     if (pl->flat_on) {
         (void)flat_line_init(&pl->flat, params->baro_flat_readings, params->baro_flat_std_Pa);
@@ -164,12 +165,10 @@ bool plausibility_accel_agrees(plausibility_t *pl, float a_up_mps2, float a_up_x
     return false;
 }
 
-bool plausibility_accel_offset_holds(plausibility_t *pl, float a_up_mps2, float a_up_xsens_mps2, float dt_s)
+bool plausibility_accel_offset_holds(plausibility_t *pl, float a_up_mps2, float a_up_xsens_mps2)
 {
     const float max = pl->p.accel_offset_max_mps2;
-    if (dt_s > 0.0f) {
-        pl->offset_mps2 += dt_s / (pl->p.accel_offset_tau_s + dt_s) * (a_up_mps2 - a_up_xsens_mps2 - pl->offset_mps2);
-    }
+    pl->offset_mps2 += pl->offset_alpha * (a_up_mps2 - a_up_xsens_mps2 - pl->offset_mps2);
     float size = fabsf(pl->offset_mps2);
     if (size > pl->offset_worst_mps2) {
         pl->offset_worst_mps2 = size;

@@ -48,6 +48,7 @@ typedef struct {
     float accel_xsens_tolerance_mps2; /* plausibility.accel_xsens_tolerance_mps2 */
     float accel_offset_tau_s;        /* plausibility.accel_offset_tau_s */
     float accel_offset_max_mps2;     /* plausibility.accel_offset_max_mps2 */
+    float T_s;                       /* the loop's period, s (the mean check's low-pass step) */
 } plausibility_params_t;
 
 /*
@@ -98,6 +99,7 @@ typedef struct {
     float p_prev_Pa;
     bool flat_on;         /* baro_flat_readings > 0 */
     flat_line_t flat;
+    float offset_alpha;      /* T_s / (accel_offset_tau_s + T_s): no division a sample */
     float offset_mps2;       /* low-passed ADXL335 - XSENS vertical acceleration */
     float offset_worst_mps2; /* its largest size since plausibility_take_offset_worst */
     bool offset_moved;       /* the means disagree: the ADXL335's offset moved */
@@ -125,8 +127,8 @@ bool plausibility_accel_in_range(plausibility_t *pl, const float f_B_mps2[3]);
 bool plausibility_accel_agrees(plausibility_t *pl, float a_up_mps2, float a_up_xsens_mps2);
 
 /* True while the ADXL335's mean vertical acceleration agrees with the XSENS's (counted if not).
- * For readings plausibility_accel_agrees accepted; dt_s the sample's period. */
-bool plausibility_accel_offset_holds(plausibility_t *pl, float a_up_mps2, float a_up_xsens_mps2, float dt_s);
+ * For readings plausibility_accel_agrees accepted; one low-pass step of T_s a reading. */
+bool plausibility_accel_offset_holds(plausibility_t *pl, float a_up_mps2, float a_up_xsens_mps2);
 
 /* The largest |low-passed difference| since the last call, m/s^2 (then reset). */
 float plausibility_take_offset_worst(plausibility_t *pl);

@@ -43,12 +43,12 @@ _SIGNATURES: dict[str, tuple[object, list[object]]] = {
     "altitude_kf_move_to": (None, [VP, F, F, F, F]),
     "altitude_kf_gate_max_rejects": (C.c_uint32, [C.c_int64, C.c_int64]),
     # plausibility
-    "shim_plaus_init": (B, [VP, F, C.c_uint16, F, F, F, F, F]),
+    "shim_plaus_init": (B, [VP, F, C.c_uint16, F, F, F, F, F, F]),
     "shim_plaus_read": (None, [VP, U32P, C.POINTER(B)]),
     "plausibility_baro_Pa": (B, [VP, B, F]),
     "plausibility_accel_in_range": (B, [VP, FP]),
     "plausibility_accel_agrees": (B, [VP, F, F]),
-    "plausibility_accel_offset_holds": (B, [VP, F, F, F]),
+    "plausibility_accel_offset_holds": (B, [VP, F, F]),
     "plausibility_take_offset_worst": (F, [VP]),
     "plausibility_refused": (C.c_uint32, [VP]),
     "flat_line_init": (B, [VP, C.c_uint16, F]),
@@ -184,9 +184,10 @@ class CPlausibility:
                 "accel_offset_moved")
 
     def __init__(self, lib: Lib, max_step: float, flat_n: int, flat_std: float, accel_g: float, tol: float,
-                 offset_tau_s: float = 1.0, offset_max: float = 0.25):
+                 offset_tau_s: float = 1.0, offset_max: float = 0.25, T_s: float = 0.0025):
         self.d, self.s = lib.dll, lib.new("plaus")
-        self.ok = self.d.shim_plaus_init(self.s, max_step, flat_n, flat_std, accel_g, tol, offset_tau_s, offset_max)
+        self.ok = self.d.shim_plaus_init(self.s, max_step, flat_n, flat_std, accel_g, tol, offset_tau_s, offset_max,
+                                         T_s)
 
     def baro_Pa(self, p: float | None) -> float | None:
         ok = self.d.plausibility_baro_Pa(self.s, p is not None, 0.0 if p is None else p)
@@ -198,8 +199,8 @@ class CPlausibility:
     def accel_agrees(self, a: float, a_x: float) -> bool:
         return self.d.plausibility_accel_agrees(self.s, a, a_x)
 
-    def accel_offset_holds(self, a: float, a_x: float, dt_s: float) -> bool:
-        return self.d.plausibility_accel_offset_holds(self.s, a, a_x, dt_s)
+    def accel_offset_holds(self, a: float, a_x: float) -> bool:
+        return self.d.plausibility_accel_offset_holds(self.s, a, a_x)
 
     def take_offset_worst(self) -> float:
         return self.d.plausibility_take_offset_worst(self.s)

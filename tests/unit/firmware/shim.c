@@ -79,9 +79,9 @@ void shim_kf_read(const altitude_kf_t *kf, float x[5], float P[25], uint32_t cou
 
 /* -- plausibility ----------------------------------------------------------------------------- */
 bool shim_plaus_init(plausibility_t *pl, float max_step_Pa, uint16_t flat_n, float flat_std_Pa, float accel_max_g,
-                     float tol_mps2, float offset_tau_s, float offset_max_mps2)
+                     float tol_mps2, float offset_tau_s, float offset_max_mps2, float T_s)
 {
-    plausibility_params_t p = {max_step_Pa, flat_n, flat_std_Pa, accel_max_g, tol_mps2, offset_tau_s, offset_max_mps2};
+    plausibility_params_t p = {max_step_Pa, flat_n, flat_std_Pa, accel_max_g, tol_mps2, offset_tau_s, offset_max_mps2, T_s};
     return plausibility_init(pl, &p);
 }
 

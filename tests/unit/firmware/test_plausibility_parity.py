@@ -102,7 +102,7 @@ def test_adc_plausibility_over_a_corrupted_stream(lib: cfw.Lib, flat_n: int) -> 
         agrees = py.accel_agrees(a, ax)
         assert agrees == c.accel_agrees(a, ax)
         if agrees:  # as the loop asks
-            assert py.accel_offset_holds(a, ax, 0.0025) == c.accel_offset_holds(a, ax, 0.0025), f"reading {k}"
+            assert py.accel_offset_holds(a, ax) == c.accel_offset_holds(a, ax), f"reading {k}"
     counters, flat, refused = c.read()
     assert counters == {k: py.counters[k] for k in cfw.CPlausibility.COUNTERS}
     assert flat == py.baro_flat and refused == py.refused
@@ -118,8 +118,8 @@ def test_an_accelerometer_offset_that_moves_is_seen_and_taken_back_with_hysteres
     verdicts = []
     for k, off in enumerate(offsets):
         a_x = f32(0.3 * math.sin(k / 50.0))  # the vehicle's own motion: both see it
-        v = py.accel_offset_holds(f32(a_x + off), a_x, 0.0025)
-        assert v == c.accel_offset_holds(f32(a_x + off), a_x, 0.0025), f"sample {k}"
+        v = py.accel_offset_holds(f32(a_x + off), a_x)
+        assert v == c.accel_offset_holds(f32(a_x + off), a_x), f"sample {k}"
         verdicts.append(v)
     first_out = verdicts.index(False)
     # 0.6 through a 1 s low-pass passes 0.25 after ln(0.6 / 0.35) = 0.54 s
