@@ -26,7 +26,7 @@ EXPECTED_TO_FAIL = {"paper-literal-weights": {"control activity: sample-to-sampl
 SHIPPED = sorted(p.stem for p in SCENARIOS_DIR.glob("*.toml"))
 #: scenarios whose fault destroys IMU samples on the wire: the flight code never receives
 #: them, so it cannot answer them (each is a barrier miss, and an IMU gap it counts)
-SAMPLES_DESTROYED = {"fault-imu-bit-errors"}
+SAMPLES_DESTROYED = {"fault-imu-bit-errors", "fault-imu-byte-loss"}
 
 
 def assert_streamed_as_batch(result: RunResult, name: str) -> None:
