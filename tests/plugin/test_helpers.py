@@ -27,7 +27,7 @@ def test_named_scenario_keeps_its_file(rig) -> None:
     scen, source = build_scenario(rig, "hover")
     assert source is not None and source.name == "hover.toml"
     assert scen.name == "hover" and scen.scenario.duration_s == 30.0
-    assert len(scen.criteria) == 13
+    assert len(scen.criteria) == 14
 
 
 def test_inline_scenario_gets_a_header(rig) -> None:

@@ -158,6 +158,7 @@ def _altitude_step_flight(climbed_m: float) -> Trace:
     tr = _trace(fn, n=32 * 400)
     for k in range(32 * 50):
         tr.point("tm.alt_est_m", k * 20_000_000, fn(k / 50)[1])
+        tr.point("tm.accel_from_xsens", k * 20_000_000, 0.0)  # the altitude filter on the ADXL335
     return tr
 
 
