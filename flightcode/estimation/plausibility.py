@@ -64,8 +64,9 @@ class PlausibilityParams:
             difference, s (1: the ADXL335's 50 Hz filter lag and the airframe's vibration
             average out, an offset that moved is seen within a few seconds).
         accel_offset_max_mps2: largest believable mean difference, m/s^2 (0.25; the clean
-            suite stays below 0.14, transit's 16 deg of pitch the most; an offset of 0.6 m/s^2 integrated for the
-            barometer-motion check's window already refuses a healthy barometer).
+            suite stays below 0.14, transit's 16 deg of pitch the most; an offset of 0.6
+            m/s^2 integrated over the barometer-motion check's window already refuses a
+            healthy barometer).
         baro_motion_window_s: the barometer's height change is compared with the
             accelerometers' over this window, s (1.5; 0 turns the check off;
             :mod:`flightcode.estimation.baro_motion`).
