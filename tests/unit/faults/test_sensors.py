@@ -302,8 +302,7 @@ async def test_adc_dout_pulled_up_reads_the_hi_z_clocks_as_ones_and_keeps_the_co
         replies.append(await _raw_replies(b, 60))
     f, c = replies
     # Fig. 6-1 puts 13 clocks before B11: DOUT is hi-Z for 12, then the null bit (0)
-    pulled = [r for r in f[rows(0.05, 0.1)]]
-    assert all(r[0] == 0xFF and r[1] & 0xF0 == 0xE0 for r in pulled)
+    assert all(r[0] == 0xFF and r[1] & 0xF0 == 0xE0 for r in f[rows(0.05, 0.1)])
     assert all(r[0] == 0x00 and r[1] & 0xF0 == 0x00 for r in f[rows(0.0, 0.05)] + f[rows(0.1, 0.15)])
     assert all(r[0] == 0x00 and r[1] & 0xF0 == 0x00 for r in c)
     assert [fig61_decode(r) for r in f] == [fig61_decode(r) for r in c]  # the conversion is the same
